@@ -1,0 +1,123 @@
+"""Loading Mitsuba scenes with acoustic materials: one ``mi.Scene`` serves camera, sonar, ground truth."""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ._native import configure_llvm
+from .materials import DEFAULT_MATERIAL_NAME, AcousticMaterial, preset
+
+#: Mitsuba variant used everywhere: Dr.Jit's LLVM backend (CPU), RGB for the camera.
+VARIANT = "llvm_ad_rgb"
+
+
+class SceneError(ValueError):
+    """A scene file could not be loaded; the message names the file and the cause."""
+
+
+class DefaultMaterialWarning(UserWarning):
+    """Shapes without acoustic properties were given the default material."""
+
+
+_registered = False
+
+
+def mitsuba():
+    """Import Mitsuba with a working LLVM, set mitsonar's variant, register the plugins."""
+    global _registered
+    configure_llvm()
+    import mitsuba as mi
+
+    if mi.variant() != VARIANT:
+        mi.set_variant(VARIANT)
+    if not _registered:
+        from mitsonar.plugins import acoustic
+
+        acoustic.register()
+        _registered = True
+    return mi
+
+
+@dataclass
+class AcousticScene:
+    """A loaded scene and the acoustic material of each of its shapes.
+
+    Attributes:
+        path: the scene file.
+        scene: the Mitsuba scene (camera, sonar and ground truth all use it).
+        shape_ids: id of every shape, in ``scene.shapes()`` order.
+        materials: distinct acoustic materials.
+        shape_material: (n_shapes,) index into ``materials`` per shape.
+        material_of_registry_id: table from a shape's Dr.Jit registry id to its material index
+            (-1 for ids that are not shapes of this scene).
+    """
+
+    path: Path
+    scene: object
+    shape_ids: list
+    materials: list
+    shape_material: np.ndarray
+    material_of_registry_id: np.ndarray
+
+    def material_index(self, shape_ptr) -> np.ndarray:
+        """Material index per lane of a Dr.Jit ``ShapePtr`` array (-1 where nothing was hit)."""
+        mi = mitsuba()
+        import drjit as dr
+
+        reg = np.asarray(dr.reinterpret_array(mi.UInt32, shape_ptr), dtype=np.int64)
+        table = self.material_of_registry_id
+        inside = reg < len(table)
+        return np.where(inside, table[np.minimum(reg, len(table) - 1)], -1)
+
+
+def load_scene(path, default_material: AcousticMaterial | None = None) -> AcousticScene:
+    """Load a Mitsuba XML scene whose BSDFs may be ``<bsdf type="acoustic">``.
+
+    Shapes without acoustic properties get ``default_material`` (the ``drywall`` preset unless
+    given) and one :class:`DefaultMaterialWarning` names them all. Raises :class:`SceneError`
+    naming the file for a missing or malformed file and for invalid acoustic properties.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise SceneError(f"{path}: scene file not found")
+    mi = mitsuba()
+    import drjit as dr
+    from mitsonar.plugins.acoustic import AcousticBSDF
+
+    try:
+        scene = mi.load_file(str(path), optimize=False)
+    except Exception as err:  # Mitsuba raises RuntimeError/ValueError with the parser's message
+        raise SceneError(f"{path}: {err}") from None
+    default = default_material or preset(DEFAULT_MATERIAL_NAME)
+    shapes = list(scene.shapes())
+    if not shapes:
+        raise SceneError(f"{path}: the scene has no shapes")
+    materials: list[AcousticMaterial] = []
+    index_of: dict[int, int] = {}
+    shape_material = np.empty(len(shapes), dtype=np.int64)
+    registry_ids = np.empty(len(shapes), dtype=np.int64)
+    defaulted = []
+    for k, shape in enumerate(shapes):
+        bsdf = shape.bsdf()
+        if isinstance(bsdf, AcousticBSDF):
+            material = bsdf.acoustic
+        else:
+            material = default
+            defaulted.append(shape.id() or f"shape #{k}")
+        key = id(material)
+        if key not in index_of:
+            index_of[key] = len(materials)
+            materials.append(material)
+        shape_material[k] = index_of[key]
+        registry_ids[k] = int(dr.reinterpret_array(mi.UInt32, mi.ShapePtr(shape))[0])
+    if defaulted:
+        warnings.warn(f"{path}: {len(defaulted)} shape(s) have no acoustic material and get the "
+                      f"default '{default.name}': {', '.join(defaulted)}", DefaultMaterialWarning,
+                      stacklevel=2)
+    table = np.full(registry_ids.max() + 1, -1, dtype=np.int64)
+    table[registry_ids] = shape_material
+    return AcousticScene(path, scene, [s.id() for s in shapes], materials, shape_material, table)

@@ -1,0 +1,63 @@
+"""Transmitted waveforms and their spectra."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .validation import check_positive, check_range
+
+#: Oversampling used to evaluate a pulse's continuous-time spectrum by direct summation [Hz].
+_SPECTRUM_RATE = 4.0e6
+
+
+@dataclass(frozen=True)
+class Pulse:
+    """Sinusoidal tone burst s(t) = e(t) sin(2 pi f t), 0 <= t <= cycles / f.
+
+    The envelope e is 1 with raised-cosine ramps of ``ramp_cycles`` periods at both ends (0 gives
+    the hard-gated burst of the paper's equation (1)).
+
+    Attributes:
+        frequency: carrier frequency f [Hz].
+        cycles: number of carrier periods.
+        ramp_cycles: length of each raised-cosine ramp [periods].
+    """
+
+    frequency: float = 40_000.0
+    cycles: float = 20.0
+    ramp_cycles: float = 1.0
+
+    def __post_init__(self):
+        check_positive("Pulse.frequency [Hz]", self.frequency)
+        check_positive("Pulse.cycles", self.cycles)
+        check_range("Pulse.ramp_cycles", self.ramp_cycles, 0.0, self.cycles / 2)
+
+    @property
+    def duration(self) -> float:
+        """Length of the burst [s]."""
+        return self.cycles / self.frequency
+
+    def envelope(self, t) -> np.ndarray:
+        """Envelope e(t) at times t [s] (0 outside the burst)."""
+        t = np.asarray(t, dtype=float)
+        ramp = self.ramp_cycles / self.frequency
+        inside = (t >= 0) & (t <= self.duration)
+        if ramp == 0:
+            return inside.astype(float)
+        edge = np.minimum(t, self.duration - t) / ramp
+        return np.where(inside, np.where(edge < 1, 0.5 - 0.5 * np.cos(np.pi * np.clip(edge, 0, 1)), 1.0), 0.0)
+
+    def analytic(self, t) -> np.ndarray:
+        """Analytic signal e(t) exp(j(2 pi f t - pi/2)); its real part is s(t)."""
+        t = np.asarray(t, dtype=float)
+        return self.envelope(t) * np.exp(1j * (2 * np.pi * self.frequency * t - np.pi / 2))
+
+    def spectrum(self, frequency) -> np.ndarray:
+        """Continuous-time Fourier transform S(f) = int s(t) exp(-j 2 pi f t) dt [s] of the real burst."""
+        f = np.asarray(frequency, dtype=float)
+        dt = 1.0 / _SPECTRUM_RATE
+        t = np.arange(0.0, self.duration + dt / 2, dt)
+        s = self.envelope(t) * np.sin(2 * np.pi * self.frequency * t)
+        return (np.exp(-2j * np.pi * f[..., None] * t) @ s) * dt

@@ -1,0 +1,262 @@
+"""The user-facing sonar: configuration, one ping, and scans over the field of view.
+
+    import mitsonar
+    sonar = mitsonar.Sonar("scenes/room_glass/scene.xml")
+    pose = mitsonar.Pose.sensor_on_robot(x=0.0, y=0.0, yaw=0.0)
+    ping = sonar.ping(pose, mitsonar.direction_from_fov_angles(0.0, 0.0))
+    print(ping.detection.depth)                      # metres, NaN if no detection
+    scan = sonar.scan(pose, sonar.fov_grid(np.radians(5)))
+    scan.points_world                                # (n_detected, 3)
+"""
+
+from __future__ import annotations
+
+import tomllib
+from dataclasses import dataclass, field, fields, replace
+from pathlib import Path
+
+import numpy as np
+
+from .array import ArrayGeometry
+from .frames import Pose, direction_from_fov_angles
+from .medium import Medium
+from .processing import Detection, DetectionSettings, EchoProcessor
+from .scene import AcousticScene, load_scene
+from .signals import Pulse
+from .synthesis import EchoSynthesizer, Paths, Recording
+from .tracer import AcousticTracer, TraceResult, TraceSettings
+from .transducer import Transducer
+from .validation import check_positive
+
+#: Time recorded before the virtual firing of the transmit origin [s] (steering delays are
+#: negative for half the elements).
+PRE_ROLL = 0.5e-3
+
+
+@dataclass(frozen=True)
+class SonarConfig:
+    """Everything that defines a simulated sensor; SI units throughout.
+
+    Attributes:
+        medium: air.
+        transducer: element model.
+        geometry: arrays and field of view.
+        pulse: drive waveform.
+        trace: ray-tracing fidelity and scattering model.
+        detection: receiver decisions.
+        sample_rate: recording sample rate [Hz].
+        max_range: farthest depth recorded [m].
+        noise_rms: receiver noise per sample [Pa].
+        transducer_response: apply the resonant transmit and receive responses.
+    """
+
+    medium: Medium = field(default_factory=Medium)
+    transducer: Transducer = field(default_factory=Transducer)
+    geometry: ArrayGeometry = field(default_factory=ArrayGeometry)
+    pulse: Pulse = field(default_factory=Pulse)
+    trace: TraceSettings = field(default_factory=TraceSettings)
+    detection: DetectionSettings = field(default_factory=DetectionSettings)
+    sample_rate: float = 200_000.0
+    max_range: float = 5.0
+    noise_rms: float = 1e-3
+    transducer_response: bool = True
+
+    def __post_init__(self):
+        check_positive("SonarConfig.sample_rate [Hz]", self.sample_rate)
+        check_positive("SonarConfig.max_range [m]", self.max_range)
+        if not (np.isfinite(self.noise_rms) and self.noise_rms >= 0):
+            raise ValueError(f"SonarConfig.noise_rms [Pa] must be >= 0, got {self.noise_rms}")
+        if self.sample_rate < 4 * self.pulse.frequency:
+            raise ValueError(f"SonarConfig.sample_rate must be >= 4x the carrier "
+                             f"({4 * self.pulse.frequency:.0f} Hz), got {self.sample_rate}")
+
+    @classmethod
+    def preset(cls, name: str) -> "SonarConfig":
+        """Named configurations: 'default' (physical model) and 'paper' (the paper's choices:
+        25 point reflectors, ideal transducers, no air absorption, 340 m/s)."""
+        if name == "default":
+            return cls()
+        if name == "paper":
+            return cls(medium=Medium(temperature=288.15),  # 15 degC: c = 340.3 m/s
+                       trace=TraceSettings(model="paper", air_absorption=False),
+                       pulse=Pulse(ramp_cycles=0.0), transducer_response=False)
+        raise ValueError(f"unknown sonar preset '{name}'; known: default, paper")
+
+    @classmethod
+    def from_toml(cls, path) -> "SonarConfig":
+        """Load a config: optional ``preset`` key, then tables [medium], [transducer], [pulse],
+        [trace], [detection] and top-level scalars overriding it. Unknown keys are errors."""
+        path = Path(path)
+        try:
+            data = tomllib.loads(path.read_text())
+        except (OSError, tomllib.TOMLDecodeError) as err:
+            raise ValueError(f"{path}: {err}") from None
+        config = cls.preset(data.pop("preset", "default"))
+        changes = {}
+        for f in fields(cls):
+            if f.name not in data:
+                continue
+            value = data.pop(f.name)
+            if isinstance(value, dict):
+                current = getattr(config, f.name)
+                known = {g.name for g in fields(current)}
+                bad = set(value) - known
+                if bad:
+                    raise ValueError(f"{path}: unknown keys {sorted(bad)} in [{f.name}]")
+                try:
+                    changes[f.name] = replace(current, **value)
+                except (TypeError, ValueError) as err:
+                    raise ValueError(f"{path}: [{f.name}] {err}") from None
+            else:
+                changes[f.name] = value
+        if data:
+            raise ValueError(f"{path}: unknown keys {sorted(data)}")
+        try:
+            return replace(config, **changes)
+        except (TypeError, ValueError) as err:
+            raise ValueError(f"{path}: {err}") from None
+
+    @property
+    def record_duration(self) -> float:
+        """Recording length [s]: pre-roll, the round trip to ``max_range``, and a whole echo
+        (pulse plus the ringing of both transducers down to e^-7) after it."""
+        ringing = 14 * self.transducer.decay_time if self.transducer_response else 0.0
+        return PRE_ROLL + 2 * self.max_range / self.medium.speed_of_sound + self.pulse.duration \
+            + ringing
+
+
+@dataclass(frozen=True)
+class Ping:
+    """One beam: paths, recording, processed envelope and the detection.
+
+    Attributes:
+        direction: (3,) beam direction in the sensor frame.
+        trace: the traced paths and reflectors.
+        recording: the per-channel echoes.
+        envelope: (N,) beamformed matched-filter envelope [Pa].
+        direct_envelope: (N,) the same for the direct path alone (blanking reference) [Pa].
+        detection: the decision.
+    """
+
+    direction: np.ndarray
+    trace: TraceResult
+    recording: Recording
+    envelope: np.ndarray
+    direct_envelope: np.ndarray
+    detection: Detection
+
+
+@dataclass(frozen=True)
+class Scan:
+    """Many beams from one pose.
+
+    Attributes:
+        pose: world-from-sensor pose.
+        directions: (B, 3) beam directions, sensor frame.
+        detected: (B,) bool.
+        depth: (B,) [m], NaN where nothing was detected.
+        amplitude: (B,) strongest envelope value [Pa].
+        points_sensor: (B, 3) reflectors, sensor frame, NaN where nothing was detected.
+        echoes: (B, N_rx, N) float32 recordings [Pa].
+        sample_rate: [Hz]; start_time: time of sample 0 [s].
+    """
+
+    pose: Pose
+    directions: np.ndarray
+    detected: np.ndarray
+    depth: np.ndarray
+    amplitude: np.ndarray
+    points_sensor: np.ndarray
+    echoes: np.ndarray
+    sample_rate: float
+    start_time: float
+
+    @property
+    def points_world(self) -> np.ndarray:
+        """(n_detected, 3) detected reflectors in the world frame, equation (12)."""
+        return self.pose.transform_points(self.points_sensor[self.detected])
+
+
+class Sonar:
+    """A simulated phased-array sonar in one loaded scene; reuses the scene and all precomputation.
+
+    Args:
+        scene: an :class:`AcousticScene` or the path of a scene file.
+        config: sensor configuration.
+    """
+
+    def __init__(self, scene, config: SonarConfig | None = None):
+        self.config = config or SonarConfig()
+        self.scene = scene if isinstance(scene, AcousticScene) else load_scene(scene)
+        cfg = self.config
+        self.tracer = AcousticTracer(self.scene, cfg.geometry, cfg.transducer, cfg.medium,
+                                     cfg.pulse, cfg.trace)
+        self.synthesizer = EchoSynthesizer(cfg.pulse, cfg.transducer, cfg.sample_rate, -PRE_ROLL,
+                                           cfg.record_duration, cfg.transducer_response)
+        self.processor = EchoProcessor(cfg.geometry, self.synthesizer, cfg.medium.speed_of_sound,
+                                       cfg.detection, cfg.noise_rms)
+
+    def fov_grid(self, step: float) -> np.ndarray:
+        """Directions (n_v * n_h, 3) on a grid of ``step`` [rad] over the field of view, row-major
+        from top-left (vertical outer, horizontal inner); 60 x 40 deg at 5 deg gives 9 x 13."""
+        check_positive("scan step [rad]", step)
+        g = self.config.geometry
+        h = _centred_range(g.fov_horizontal / 2, step)
+        v = _centred_range(g.fov_vertical / 2, step)
+        vv, hh = np.meshgrid(v, h, indexing="ij")
+        return direction_from_fov_angles(hh, vv).reshape(-1, 3)
+
+    def ping(self, pose: Pose, direction, seed: int = 0) -> Ping:
+        """Transmit one beam towards ``direction`` (3,) (sensor frame) from ``pose`` and detect.
+
+        Args:
+            pose: world-from-sensor pose.
+            direction: beam direction, inside the field of view.
+            seed: seeds the diffuse phases and the receiver noise (same seed, same echoes).
+        """
+        u = np.asarray(direction, dtype=float)
+        if u.shape != (3,):
+            raise ValueError(f"direction must be a (3,) vector, got shape {u.shape}")
+        self.config.geometry.check_in_fov(u)
+        u = u / np.linalg.norm(u)
+        n_rx = self.config.geometry.rx.count
+        trace = self.tracer.trace(pose, u, seed=seed)
+        direct = self.tracer.direct_paths(u)
+        recording = self.synthesizer.synthesize(Paths.concatenate([trace.paths, direct]), n_rx,
+                                                self.config.noise_rms, seed=[seed, 1])
+        envelope = self.processor.envelope(recording, u)
+        direct_envelope = self.processor.envelope(self.synthesizer.synthesize(direct, n_rx), u)
+        detection = self.processor.detect(envelope, recording.start_time, u, direct_envelope)
+        return Ping(u, trace, recording, envelope, direct_envelope, detection)
+
+    def scan(self, pose: Pose, directions, seed: int = 0, progress=None) -> Scan:
+        """Ping every direction (B, 3) from one pose; ``progress`` is called with each index.
+
+        Beam b uses seed ``[seed, b]``.
+        """
+        dirs = np.asarray(directions, dtype=float).reshape(-1, 3)
+        self.config.geometry.check_in_fov(dirs)
+        pings = []
+        for b, u in enumerate(dirs):  # one beam at a time: each beam is a vectorised trace
+            pings.append(self.ping(pose, u, seed=_beam_seed(seed, b)))
+            if progress is not None:
+                progress(b)
+        det = [p.detection for p in pings]
+        return Scan(pose=pose, directions=dirs,
+                    detected=np.array([d.detected for d in det]),
+                    depth=np.array([d.depth for d in det]),
+                    amplitude=np.array([d.amplitude for d in det]),
+                    points_sensor=np.array([d.point for d in det]).reshape(-1, 3),
+                    echoes=np.stack([p.recording.samples for p in pings]).astype(np.float32),
+                    sample_rate=self.synthesizer.sample_rate,
+                    start_time=self.synthesizer.start_time)
+
+
+def _beam_seed(seed: int, beam: int) -> int:
+    """Independent, reproducible seed of beam ``beam`` within a scan seeded with ``seed``."""
+    return int(np.random.SeedSequence([seed, beam]).generate_state(1)[0])
+
+
+def _centred_range(half: float, step: float) -> np.ndarray:
+    n = int(np.floor(half / step + 1e-9))
+    return np.arange(-n, n + 1) * step

@@ -1,0 +1,196 @@
+"""Echo synthesis: acoustic paths -> channel impulse responses -> per-microphone recordings.
+
+A path is a complex gain ``a`` [Pa, for the drive pulse] and a delay ``tau`` [s] into one receive
+channel. The analytic recording of a channel is sum_p a_p w(t - tau_p), where w is the analytic
+system waveform: the drive pulse through the transmitter and receiver responses. Its real part is
+the recorded pressure.
+
+Fast synthesis (band-limited, exact for these signals): every path is spread onto the sample grid
+with a short Gaussian kernel (a type-1 non-uniform FFT), one FFT per channel gives
+sum_p a_p exp(-j 2 pi f tau_p) times the kernel's transform, which is divided out inside the
+signal band and multiplied by the system spectrum W(f). Cost: paths x kernel taps + one FFT per
+channel, instead of paths x samples for the direct summation (kept in the tests as the oracle).
+Fractional delays are exact up to the stated tolerance, far below one sample.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.fft as sfft
+
+from .signals import Pulse
+from .transducer import Transducer
+from .validation import check_finite, check_positive
+
+#: Paths spread per batch in :meth:`EchoSynthesizer.impulse_grid` (bounds temporary memory).
+_CHUNK = 200_000
+
+
+@dataclass(frozen=True)
+class Paths:
+    """Flat list of acoustic paths.
+
+    Attributes:
+        gain: (M,) complex gain [Pa] applied to the analytic drive waveform.
+        delay: (M,) delay from the virtual firing of the transmit origin [s].
+        channel: (M,) receive element index.
+    """
+
+    gain: np.ndarray
+    delay: np.ndarray
+    channel: np.ndarray
+
+    def __post_init__(self):
+        n = len(self.gain)
+        if len(self.delay) != n or len(self.channel) != n:
+            raise ValueError("Paths: gain, delay and channel must have the same length")
+
+    @classmethod
+    def from_factors(cls, tx_gain, tx_delay, rx_gain, rx_delay, mid_gain=None) -> "Paths":
+        """Expand factorised paths: gain = tx_gain[h,i] rx_gain[h,j] mid_gain, delay = sum.
+
+        Args:
+            tx_gain, tx_delay: (H, N_tx) per hit and transmit element.
+            rx_gain, rx_delay: (H, N_rx) per hit and receive element.
+            mid_gain: scattering factor, (H,) per hit or (H, N_tx, N_rx) per path; default 1.
+        """
+        tx_gain = np.asarray(tx_gain)
+        rx_gain = np.asarray(rx_gain)
+        h, n_tx = tx_gain.shape
+        n_rx = rx_gain.shape[1]
+        gain = tx_gain[:, :, None] * rx_gain[:, None, :]
+        if mid_gain is not None:
+            mid_gain = np.asarray(mid_gain)
+            gain = gain * (mid_gain[:, None, None] if mid_gain.ndim == 1 else mid_gain)
+        delay = np.asarray(tx_delay)[:, :, None] + np.asarray(rx_delay)[:, None, :]
+        channel = np.broadcast_to(np.arange(n_rx), (h, n_tx, n_rx))
+        return cls(gain.ravel(), delay.ravel(), channel.ravel())
+
+    @classmethod
+    def concatenate(cls, parts) -> "Paths":
+        parts = list(parts)
+        return cls(np.concatenate([p.gain for p in parts]), np.concatenate([p.delay for p in parts]),
+                   np.concatenate([p.channel for p in parts]))
+
+    def __len__(self) -> int:
+        return len(self.gain)
+
+
+@dataclass(frozen=True)
+class Recording:
+    """Sampled echoes of all receive channels.
+
+    Attributes:
+        samples: (N_rx, N) received pressure [Pa] (receiver response included).
+        sample_rate: [Hz].
+        start_time: time of sample 0 relative to the virtual firing of the transmit origin [s].
+    """
+
+    samples: np.ndarray
+    sample_rate: float
+    start_time: float
+
+    @property
+    def times(self) -> np.ndarray:
+        """(N,) sample times [s]."""
+        return self.start_time + np.arange(self.samples.shape[-1]) / self.sample_rate
+
+
+class EchoSynthesizer:
+    """Fast band-limited synthesis of recordings from paths, for one fixed recording window.
+
+    Construct once and reuse: the system spectrum and kernel are precomputed.
+
+    Args:
+        pulse: drive waveform.
+        transducer: element model; its response is applied twice (transmit and receive) when
+            ``transducer_response`` is true.
+        sample_rate: recording sample rate [Hz].
+        start_time: time of the first sample [s] (negative to record the firing itself).
+        duration: recording length [s].
+        transducer_response: apply H_tx H_rx (false: ideal flat transducers, as in (1)(3)).
+        tolerance: relative accuracy of the band-limited synthesis (kernel aliasing and truncation).
+    """
+
+    def __init__(self, pulse: Pulse, transducer: Transducer, sample_rate: float, start_time: float,
+                 duration: float, transducer_response: bool = True, tolerance: float = 1e-7):
+        check_positive("sample_rate [Hz]", sample_rate)
+        check_positive("duration [s]", duration)
+        check_finite("start_time [s]", start_time)
+        self.pulse = pulse
+        self.sample_rate = float(sample_rate)
+        self.start_time = float(start_time)
+        self.n_samples = int(np.ceil(duration * sample_rate))
+        # Guard samples so that the ringing of the last echoes does not wrap onto the first ones.
+        ringing = 14 * transducer.decay_time if transducer_response else 0.0
+        guard = int(np.ceil((pulse.duration + ringing) * sample_rate)) + 64
+        self.n_fft = sfft.next_fast_len(self.n_samples + guard)
+        f = np.fft.fftfreq(self.n_fft, 1.0 / sample_rate)
+        positive = f > 0
+        w = np.zeros(self.n_fft, dtype=complex)
+        w[positive] = 2.0 * pulse.spectrum(f[positive]) * sample_rate  # analytic, per-sample scale
+        if transducer_response:
+            w[positive] *= transducer.frequency_response(f[positive]) ** 2
+        band = np.abs(w) > tolerance * np.abs(w).max()
+        band &= np.abs(f) < 0.4 * sample_rate
+        nu_max = np.abs(f[band]).max() / sample_rate
+        # Gaussian kernel (sigma in samples): aliasing from the images at fs - f stays below the
+        # tolerance, and truncation stays below it after the deconvolution gain at nu_max.
+        log_tol = np.log(1.0 / tolerance)
+        self.sigma = float(np.sqrt(log_tol / (2 * np.pi**2 * (1 - 2 * nu_max))))
+        deconv_gain = np.exp(2 * np.pi**2 * self.sigma**2 * nu_max**2)
+        self.half_width = int(np.ceil(self.sigma * np.sqrt(2 * np.log(deconv_gain / tolerance))))
+        nu = f / sample_rate
+        kernel_ft = self.sigma * np.sqrt(2 * np.pi) * np.exp(-2 * np.pi**2 * self.sigma**2 * nu**2)
+        self.system_spectrum = np.where(band, w, 0.0)  # W(f) on the FFT grid (analytic, x fs)
+        self._filter = np.where(band, w / kernel_ft, 0.0)
+        self._offsets = np.arange(-self.half_width, self.half_width + 1)
+
+    def impulse_grid(self, paths: Paths, n_channels: int) -> np.ndarray:
+        """Spread paths onto the (n_channels, n_fft) sample grid with the Gaussian kernel."""
+        u = (np.asarray(paths.delay) - self.start_time) * self.sample_rate
+        keep = (u > -self.half_width) & (u < self.n_samples + self.half_width)
+        u = u[keep]
+        gain = np.asarray(paths.gain)[keep]
+        channel = np.asarray(paths.channel)[keep]
+        if len(channel) and (channel.min() < 0 or channel.max() >= n_channels):
+            raise ValueError(f"path channel out of range 0..{n_channels - 1}")
+        size = n_channels * self.n_fft
+        grid = np.zeros(size, dtype=complex)
+        for start in range(0, len(u), _CHUNK):  # bounded memory: chunks of paths, not a path loop
+            uc = u[start:start + _CHUNK]
+            idx = np.floor(uc).astype(np.int64)[:, None] + self._offsets[None, :]  # (m, taps)
+            weight = np.exp(-0.5 * ((idx - uc[:, None]) / self.sigma) ** 2) \
+                * gain[start:start + _CHUNK, None]
+            flat = (channel[start:start + _CHUNK, None] * self.n_fft + np.mod(idx, self.n_fft)).ravel()
+            grid += np.bincount(flat, weight.real.ravel(), size)
+            grid += 1j * np.bincount(flat, weight.imag.ravel(), size)
+        return grid.reshape(n_channels, self.n_fft)
+
+    def analytic(self, paths: Paths, n_channels: int) -> np.ndarray:
+        """Analytic recordings (n_channels, n_samples), complex [Pa]."""
+        spectrum = sfft.fft(self.impulse_grid(paths, n_channels), axis=-1) * self._filter
+        return sfft.ifft(spectrum, axis=-1)[:, : self.n_samples]
+
+    def synthesize(self, paths: Paths, n_channels: int, noise_rms: float = 0.0,
+                   seed: int | None = None) -> Recording:
+        """Recording of ``n_channels`` channels with additive white Gaussian receiver noise.
+
+        Args:
+            paths: the acoustic paths.
+            n_channels: number of receive channels.
+            noise_rms: noise standard deviation per sample [Pa]; needs ``seed`` when > 0.
+            seed: seed of the noise generator (same seed, same recording).
+        """
+        samples = self.analytic(paths, n_channels).real
+        if noise_rms > 0:
+            if seed is None:
+                raise ValueError("noise_rms > 0 needs an explicit seed")
+            samples = samples + np.random.default_rng(seed).normal(0.0, noise_rms, samples.shape)
+        return Recording(samples, self.sample_rate, self.start_time)
+
+    def template(self) -> np.ndarray:
+        """Analytic system waveform w(t) for a unit path at delay 0, on the FFT grid (n_fft,)."""
+        return sfft.ifft(self.system_spectrum)

@@ -1,0 +1,1 @@
+"""Mitsuba plugins of mitsonar (installed as ``mitsonar.plugins``)."""

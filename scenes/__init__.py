@@ -1,0 +1,1 @@
+"""Shipped scenes (installed as ``mitsonar.scenes``) and the generator that writes them."""
