@@ -17,7 +17,7 @@ $(STAMP): pyproject.toml
 install: $(STAMP)
 
 demo: $(STAMP)
-	$(VENV)/bin/mitsonar scan scenes/room_glass/scene.xml --pose 0,0,0,0 \
+	$(VENV)/bin/mitsonar scan scenes/room_glass/scene.xml --pose 0,0,0 \
 		--fov 60x40 --step 5 --out $(OUT)/demo
 
 test: $(STAMP)

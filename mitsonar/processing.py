@@ -101,7 +101,7 @@ class EchoProcessor:
         self.settings = settings
         w = synthesizer.system_spectrum
         energy = float(np.sum(np.abs(w) ** 2)) / synthesizer.n_fft  # sum |w_a[m]|^2 (Parseval)
-        self._mf = np.conj(w) / energy
+        self._mf = 2.0 * np.conj(w) / energy  # 2: analytic spectrum of the real recording
         self.noise_envelope_rms = 2.0 * noise_rms / np.sqrt(energy * geometry.rx.count)
         self.carrier = synthesizer.pulse.frequency
 

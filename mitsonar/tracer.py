@@ -35,6 +35,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import drjit as dr
 import numpy as np
 
 from .array import APERTURE, ArrayGeometry
@@ -202,9 +203,10 @@ class AcousticTracer:
             ray = mi.Ray3f(mi.Point3f(*[mi.Float(o[active, k]) for k in range(3)]),
                            mi.Vector3f(*[mi.Float(directions[active, k]) for k in range(3)]))
             si = self.scene.scene.ray_intersect(ray)
-            valid = np.asarray(si.is_valid(), dtype=bool)
-            m = self.scene.material_index(si.shape)
-            m = np.where(valid, m, -1)
+            valid_dr = si.is_valid()
+            dr.eval(si.t, si.p, si.n, si.shape, valid_dr)  # one kernel launch for all outputs
+            valid = np.asarray(valid_dr, dtype=bool)
+            m = np.where(valid, self.scene.material_index(si.shape), -1)
             hit_t = np.asarray(si.t, dtype=float)
             through = valid & (m >= 0) & self._transparent[np.maximum(m, 0)]
             done = ~through

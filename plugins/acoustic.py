@@ -33,9 +33,12 @@ def material_from_properties(props: mi.Properties) -> AcousticMaterial:
     if unknown:
         raise ValueError(f"acoustic material '{mat_id}': unknown properties {unknown}; "
                          f"expected {sorted(_KNOWN)}")
-    base = preset(props["preset"]) if props.has_property("preset") else None
+    try:
+        base = preset(props["preset"]) if "preset" in props else None
+    except ValueError as err:
+        raise ValueError(f"acoustic material '{mat_id}': {err}") from None
     changes = {k: float(props[k]) for k in ("impedance", "absorption", "scattering")
-               if props.has_property(k)}
+               if k in props}
     if base is None:
         if "impedance" not in changes and "absorption" not in changes:
             raise ValueError(f"acoustic material '{mat_id}': give a 'preset', an 'impedance' "
