@@ -10,10 +10,14 @@ Order and choices:
   Beamforming and filtering share one FFT per channel and one inverse FFT.
 * Envelope = |analytic output|; time of arrival at its strongest peak, refined by a parabola
   through the three samples around it.
-* Detection: the peak must exceed ``detection_snr`` times the RMS noise envelope (known from the
-  receiver noise), an absolute ``detection_floor``, ``blanking_margin`` times the envelope of the
-  direct transmitter->receiver path alone (direct-path blanking), and lie beyond ``min_range``.
-  Otherwise the result is "no detection": NaN depth and ``detected = False``.
+* Detection: candidates are the envelope's local maxima beyond ``min_range`` that exceed
+  ``detection_snr`` times the RMS noise envelope (known from the receiver noise), an absolute
+  ``detection_floor``, and ``blanking_margin`` times the envelope of the direct
+  transmitter->receiver path alone (direct-path blanking). Strongest first, a candidate is
+  accepted unless it arrives from elsewhere: receive beams formed from the same recording at that
+  instant over the field of view show it ``ghost_margin`` stronger outside the main lobe than
+  along the beam (a side-lobe echo, e.g. the specular return of a tilted wall, which would give a
+  wrong depth). No accepted candidate gives "no detection": NaN depth and ``detected = False``.
 * Depth by the bistatic (7): d = (l^2 - b^2) / (2 (l - b cos theta_b)), with theta_b the angle
   between the beam and the baseline vector (TX -> RX origin); point = d * u in the sensor frame.
 """
@@ -26,6 +30,7 @@ import numpy as np
 import scipy.fft as sfft
 
 from .array import ArrayGeometry
+from .frames import direction_from_fov_angles
 from .synthesis import EchoSynthesizer, Recording
 from .validation import check_positive
 
@@ -40,16 +45,30 @@ class DetectionSettings:
         detection_floor: absolute threshold on the envelope [Pa] (matters without noise).
         blanking_margin: factor over the direct-path envelope a detection must exceed.
         min_range: nearest depth reported [m].
+        ghost_margin: factor by which an off-beam receive direction must beat the beam for a
+            candidate to be rejected as a side-lobe arrival (0 disables the check).
+        ghost_exclusion: half-angle around the beam treated as its main lobe [rad].
+        ghost_grid_step: spacing of the receive directions checked over the field of view [rad].
+        max_candidates: envelope peaks examined, strongest first.
     """
 
     detection_snr: float = 5.0
     detection_floor: float = 1e-3
     blanking_margin: float = 2.0
     min_range: float = 0.2
+    ghost_margin: float = 2.0
+    ghost_exclusion: float = np.radians(6.0)
+    ghost_grid_step: float = np.radians(2.0)
+    max_candidates: int = 8
 
     def __post_init__(self):
-        for name in ("detection_snr", "detection_floor", "blanking_margin", "min_range"):
+        for name in ("detection_snr", "detection_floor", "blanking_margin", "min_range",
+                     "ghost_exclusion", "ghost_grid_step"):
             check_positive(f"DetectionSettings.{name}", getattr(self, name))
+        if not (np.isfinite(self.ghost_margin) and self.ghost_margin >= 0):
+            raise ValueError(f"DetectionSettings.ghost_margin must be >= 0, got {self.ghost_margin}")
+        if int(self.max_candidates) != self.max_candidates or self.max_candidates < 1:
+            raise ValueError(f"DetectionSettings.max_candidates must be an integer >= 1")
 
 
 @dataclass(frozen=True)
@@ -105,26 +124,72 @@ class EchoProcessor:
         self.noise_envelope_rms = 2.0 * noise_rms / np.sqrt(energy * geometry.rx.count)
         self.carrier = synthesizer.pulse.frequency
 
-    def receive_delays(self, direction) -> np.ndarray:
-        """Plane-wave delays t_j^B(psi) of (5) [s], (N_rx,): channel j is read at t + t_j^B."""
+    def receive_delays(self, directions) -> np.ndarray:
+        """Plane-wave delays t_j^B(psi) of (5) [s]: (N_rx,) for one direction (3,), (D, N_rx) for
+        (D, 3). Channel j is read at t + t_j^B."""
         g = self.geometry
-        return -((g.rx_positions - g.rx_origin) @ np.asarray(direction, dtype=float)) / self.c
+        return -(np.asarray(directions, dtype=float) @ (g.rx_positions - g.rx_origin).T) / self.c
 
-    def beamform(self, recording: Recording, direction) -> np.ndarray:
-        """Matched-filtered delay-and-sum output towards ``direction`` (3,): analytic (N,) [Pa]."""
-        n = recording.samples.shape[1]
-        x = sfft.fft(recording.samples, n=self.synth.n_fft, axis=-1)
+    def compressed_spectra(self, recording: Recording) -> np.ndarray:
+        """Matched-filtered analytic spectra of all channels, (N_rx, n_fft)."""
+        return sfft.fft(recording.samples, n=self.synth.n_fft, axis=-1) * self._mf
+
+    def beamform(self, spectra: np.ndarray, n_samples: int, direction) -> np.ndarray:
+        """Delay-and-sum of compressed spectra towards ``direction`` (3,): analytic (N,) [Pa]."""
         f = sfft.fftfreq(self.synth.n_fft, 1.0 / self.synth.sample_rate)
         steer = np.exp(2j * np.pi * f[None, :] * self.receive_delays(direction)[:, None])
-        y = (x * steer).mean(axis=0) * self._mf
-        return sfft.ifft(y)[:n]
+        return sfft.ifft((spectra * steer).mean(axis=0))[:n_samples]
 
     def envelope(self, recording: Recording, direction) -> np.ndarray:
         """Envelope (N,) [Pa] of the beamformed, matched-filtered recording."""
-        return np.abs(self.beamform(recording, direction))
+        n = recording.samples.shape[1]
+        return np.abs(self.beamform(self.compressed_spectra(recording), n, direction))
+
+    def _ghost_directions(self, direction) -> np.ndarray:
+        """Receive directions (D, 3) over the field of view outside the beam's main lobe."""
+        g = self.geometry
+        step = self.settings.ghost_grid_step
+        h = np.arange(-g.fov_horizontal / 2, g.fov_horizontal / 2 + 1e-9, step)
+        v = np.arange(-g.fov_vertical / 2, g.fov_vertical / 2 + 1e-9, step)
+        hh, vv = np.meshgrid(h, v, indexing="ij")
+        dirs = direction_from_fov_angles(hh, vv).reshape(-1, 3)
+        return dirs[dirs @ direction < np.cos(self.settings.ghost_exclusion)]
+
+    def _arrives_off_beam(self, channels, start_time, k, direction, ghost_dirs) -> bool:
+        """True if, at sample k, some receive direction outside the main lobe is ``ghost_margin``
+        times stronger than the beam (narrow-band delays on the demodulated channels)."""
+        fs = self.synth.sample_rate
+        w0 = 2 * np.pi * self.carrier
+        dirs = np.concatenate([direction[None], ghost_dirs])
+        t = start_time + (k + self.receive_delays(dirs) * fs) / fs  # (D, N_rx) read times
+        q = (t - start_time) * fs
+        i0 = np.clip(np.floor(q).astype(np.int64), 0, channels.shape[1] - 2)
+        frac = q - i0
+        rows = np.arange(channels.shape[0])[None, :]
+        t0 = start_time + i0 / fs
+        base0 = channels[rows, i0] * np.exp(-1j * w0 * t0)
+        base1 = channels[rows, i0 + 1] * np.exp(-1j * w0 * (t0 + 1 / fs))
+        values = ((1 - frac) * base0 + frac * base1) * np.exp(1j * w0 * t)
+        power = np.abs(values.mean(axis=1))
+        return bool(power[1:].max(initial=0.0) > self.settings.ghost_margin * power[0])
+
+    def process(self, recording: Recording, direction, direct_envelope: np.ndarray | None = None):
+        """Envelope (N,) [Pa] and :class:`Detection` of one beam from its recording.
+
+        Args:
+            recording: the per-channel echoes.
+            direction: (3,) beam direction in the sensor frame.
+            direct_envelope: (N,) envelope of the direct path alone, for blanking (optional).
+        """
+        spectra = self.compressed_spectra(recording)
+        n = recording.samples.shape[1]
+        u = np.asarray(direction, dtype=float)
+        envelope = np.abs(self.beamform(spectra, n, u))
+        return envelope, self.detect(envelope, recording.start_time, u, direct_envelope, spectra)
 
     def detect(self, envelope: np.ndarray, start_time: float, direction,
-               direct_envelope: np.ndarray | None = None) -> Detection:
+               direct_envelope: np.ndarray | None = None,
+               spectra: np.ndarray | None = None) -> Detection:
         """Time of arrival, depth and point from an envelope (N,) [Pa], or no detection.
 
         Args:
@@ -132,41 +197,44 @@ class EchoProcessor:
             start_time: time of its first sample [s].
             direction: (3,) beam direction in the sensor frame.
             direct_envelope: (N,) envelope of the direct path alone, for blanking (optional).
+            spectra: compressed channel spectra (N_rx, n_fft) for the side-lobe check (optional;
+                without them every candidate is taken to arrive along the beam).
         """
         s = self.settings
         fs = self.synth.sample_rate
         g = self.geometry
         u = np.asarray(direction, dtype=float)
-        t = start_time + np.arange(len(envelope)) / fs
+        n = len(envelope)
+        t = start_time + np.arange(n) / fs
         cos_b = float(u @ g.rx_origin) / g.baseline
         # Path length of the nearest reportable depth, from (7) solved for l.
         r_min = s.min_range
         l_min = r_min + np.sqrt(r_min**2 + g.baseline**2 - 2 * r_min * g.baseline * cos_b)
-        threshold = np.full(len(envelope), max(s.detection_snr * self.noise_envelope_rms,
-                                               s.detection_floor))
+        threshold = np.full(n, max(s.detection_snr * self.noise_envelope_rms, s.detection_floor))
         if direct_envelope is not None:
             threshold = np.maximum(threshold, s.blanking_margin * direct_envelope)
         window = self.c * t >= l_min
         if not np.any(window):
             raise ValueError("the recording ends before the minimum range")
-        masked = np.where(window, envelope, -np.inf)
-        k = int(np.argmax(masked))
-        amplitude = float(envelope[k])
+        k_max = int(np.argmax(np.where(window, envelope, -np.inf)))
+        amplitude, level = float(envelope[k_max]), float(threshold[k_max])
+        peaks = np.zeros(n, bool)
+        peaks[1:-1] = (envelope[1:-1] >= envelope[:-2]) & (envelope[1:-1] > envelope[2:])
+        candidates = np.nonzero(peaks & window & (envelope > threshold))[0]
+        candidates = candidates[np.argsort(envelope[candidates])[::-1][: s.max_candidates]]
         nan3 = np.full(3, np.nan)
-        if amplitude <= threshold[k]:
-            # The strongest sample fails; a weaker one may still pass where the threshold is lower.
-            passing = window & (envelope > threshold)
-            if not np.any(passing):
-                return Detection(False, np.nan, np.nan, np.nan, nan3, amplitude, float(threshold[k]))
-            k = int(np.argmax(np.where(passing, envelope, -np.inf)))
-            amplitude = float(envelope[k])
-        offset = 0.0
-        if 0 < k < len(envelope) - 1:
-            y0, y1, y2 = envelope[k - 1: k + 2]
-            denom = y0 - 2 * y1 + y2
-            if denom < 0:
-                offset = 0.5 * (y0 - y2) / denom
+        if len(candidates) and spectra is not None and s.ghost_margin > 0:
+            channels = sfft.ifft(spectra, axis=-1)[:, :n]
+            ghost_dirs = self._ghost_directions(u)
+            candidates = [k for k in candidates
+                          if not self._arrives_off_beam(channels, start_time, k, u, ghost_dirs)][:1]
+        if len(candidates) == 0:
+            return Detection(False, np.nan, np.nan, np.nan, nan3, amplitude, level)
+        k = int(candidates[0])
+        y0, y1, y2 = envelope[k - 1: k + 2]
+        denom = y0 - 2 * y1 + y2
+        offset = 0.5 * (y0 - y2) / denom if denom < 0 else 0.0
         toa = float(t[k] + offset / fs)
         l = self.c * toa
         depth = float(bistatic_depth(l, g.baseline, cos_b))
-        return Detection(True, toa, l, depth, depth * u, amplitude, float(threshold[k]))
+        return Detection(True, toa, l, depth, depth * u, float(envelope[k]), float(threshold[k]))

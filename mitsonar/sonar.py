@@ -224,9 +224,8 @@ class Sonar:
         direct = self.tracer.direct_paths(u)
         recording = self.synthesizer.synthesize(Paths.concatenate([trace.paths, direct]), n_rx,
                                                 self.config.noise_rms, seed=[seed, 1])
-        envelope = self.processor.envelope(recording, u)
         direct_envelope = self.processor.envelope(self.synthesizer.synthesize(direct, n_rx), u)
-        detection = self.processor.detect(envelope, recording.start_time, u, direct_envelope)
+        envelope, detection = self.processor.process(recording, u, direct_envelope)
         return Ping(u, trace, recording, envelope, direct_envelope, detection)
 
     def scan(self, pose: Pose, directions, seed: int = 0, progress=None) -> Scan:

@@ -37,6 +37,7 @@ from dataclasses import dataclass
 
 import drjit as dr
 import numpy as np
+from scipy.ndimage import binary_dilation
 
 from .array import APERTURE, ArrayGeometry
 from .frames import Pose, orthonormal_basis
@@ -64,6 +65,11 @@ class TraceSettings:
         taper: outer fraction of the cone radius over which contributions fade to 0.
         main_lobe_width: 3 dB width that shapes the ray density [rad].
         importance_floor: ray density outside the main lobe relative to its centre, in (0, 1].
+        refine: cells at silhouettes, material changes, depth jumps or curved surfaces (normals of
+            neighbouring cells differing by more than ``refine_normal_angle``) are split into
+            refine x refine sub-rays (1 disables refinement).
+        refine_normal_angle: normal difference between neighbouring cells that triggers
+            refinement [rad].
         max_bounces: 1 (single scattering) or 2 (plus one specular bounce before).
         shadow_rays: test the visibility of every receive element from every hit.
         air_absorption: apply ISO 9613-1 absorption along the paths.
@@ -79,6 +85,8 @@ class TraceSettings:
     taper: float = 0.3
     main_lobe_width: float = np.radians(5.0)
     importance_floor: float = 0.2
+    refine: int = 4
+    refine_normal_angle: float = np.radians(10.0)
     max_bounces: int = 1
     shadow_rays: bool = True
     air_absorption: bool = True
@@ -96,6 +104,9 @@ class TraceSettings:
         check_range("TraceSettings.taper", self.taper, 0.0, 1.0)
         check_positive("TraceSettings.main_lobe_width [rad]", self.main_lobe_width)
         check_range("TraceSettings.importance_floor", self.importance_floor, 1e-3, 1.0)
+        if int(self.refine) != self.refine or not 1 <= self.refine <= 16:
+            raise ValueError(f"TraceSettings.refine must be an integer in 1..16, got {self.refine}")
+        check_range("TraceSettings.refine_normal_angle [rad]", self.refine_normal_angle, 0.0, np.pi)
         if self.max_bounces not in (1, 2):
             raise ValueError(f"TraceSettings.max_bounces must be 1 or 2, got {self.max_bounces}")
         check_range("TraceSettings.crosstalk_gain", self.crosstalk_gain, 0.0, 1e3)
@@ -171,25 +182,34 @@ class AcousticTracer:
         if s.model == "paper":
             offsets = (np.arange(s.paper_grid) - (s.paper_grid - 1) / 2) * np.tan(s.paper_spacing)
             aa, bb = np.meshgrid(offsets, offsets, indexing="ij")
-            self._grid = (aa.ravel(), bb.ravel(), None, None, np.ones(aa.size))
+            zero = np.zeros_like(aa)
+            self._grid = (aa, bb, zero, zero, np.ones(aa.shape, bool))
         else:
             half = np.tan(s.cone_half_angle)
             sigma = 1.5 * np.tan(s.main_lobe_width) / 2.355
             centres, widths = _warped_grid(s.rays_per_axis, half, sigma, s.importance_floor)
             aa, bb = np.meshgrid(centres, centres, indexing="ij")
             da, db = np.meshgrid(widths, widths, indexing="ij")
-            rho = np.hypot(aa, bb) / half
-            inside = rho <= 1.0
-            fade = np.clip((1.0 - rho) / max(s.taper, 1e-9), 0.0, 1.0) if s.taper > 0 else np.ones_like(rho)
-            weight = np.sin(0.5 * np.pi * fade) ** 2
-            self._grid = (aa[inside], bb[inside], da[inside], db[inside], weight[inside])
+            self._grid = (aa, bb, da, db, np.hypot(aa, bb) <= half)
+
+    def _taper(self, a, b):
+        """Weight of a ray at tangent-plane offsets (a, b): 1 inside, fading to 0 at the cone edge."""
+        s = self.settings
+        if s.model == "paper":
+            return np.ones_like(a)
+        rho = np.hypot(a, b) / np.tan(s.cone_half_angle)
+        fade = np.clip((1.0 - rho) / s.taper, 0.0, 1.0) if s.taper > 0 else (rho <= 1).astype(float)
+        return np.sin(0.5 * np.pi * fade) ** 2
 
     # ---- geometry helpers -------------------------------------------------------------------
     def _attenuation(self, distance):
         return 10.0 ** (-self._absorption * distance / 20.0)
 
     def _intersect(self, origins, directions):
-        """First non-transparent hit of rays (world frame). Returns t, p, n, material (-1: miss)."""
+        """First non-transparent hit of rays (world frame).
+
+        Returns t (inf: miss), p, n (world), material index (-1: miss) and shape registry id.
+        """
         mi = self.mi
         n_rays = len(origins)
         t_total = np.zeros(n_rays)
@@ -197,6 +217,7 @@ class AcousticTracer:
         p = np.zeros((n_rays, 3))
         nrm = np.zeros((n_rays, 3))
         mat = np.full(n_rays, -1)
+        shape = np.full(n_rays, -1)
         active = np.arange(n_rays)
         o = origins.copy()
         for _ in range(_MAX_TRANSPARENT_LAYERS):  # loop over layers, each vectorised over rays
@@ -206,6 +227,7 @@ class AcousticTracer:
             valid_dr = si.is_valid()
             dr.eval(si.t, si.p, si.n, si.shape, valid_dr)  # one kernel launch for all outputs
             valid = np.asarray(valid_dr, dtype=bool)
+            registry = np.asarray(dr.reinterpret_array(self.mi.UInt32, si.shape), dtype=np.int64)
             m = np.where(valid, self.scene.material_index(si.shape), -1)
             hit_t = np.asarray(si.t, dtype=float)
             through = valid & (m >= 0) & self._transparent[np.maximum(m, 0)]
@@ -215,6 +237,7 @@ class AcousticTracer:
             p[idx] = np.asarray(si.p, dtype=float).T[done]
             nrm[idx] = np.asarray(si.n, dtype=float).T[done]
             mat[idx] = m[done]
+            shape[idx] = np.where(valid[done], registry[done], -1)
             nxt = active[through]
             step = hit_t[through] + _EPS
             t_total[nxt] += step
@@ -222,14 +245,14 @@ class AcousticTracer:
             active = nxt
             if len(active) == 0:
                 break
-        return t, p, nrm, mat
+        return t, p, nrm, mat, shape
 
     def _visible(self, points, targets):
         """(len(points),) True where the segment point -> target (world) is unobstructed."""
         seg = targets - points
         dist = np.linalg.norm(seg, axis=-1)
         d = seg / dist[:, None]
-        t, _, _, _ = self._intersect(points + _EPS * d, d)
+        t = self._intersect(points + _EPS * d, d)[0]
         return t >= dist - 2 * _EPS
 
     # ---- physics ---------------------------------------------------------------------------
@@ -323,6 +346,38 @@ class AcousticTracer:
         return out
 
     # ---- public ----------------------------------------------------------------------------
+    def _cast(self, sensor_pose: Pose, u, e1, e2, a, b):
+        """Rays through tangent-plane offsets (a, b) around u; returns directions (sensor frame),
+        |u + a e1 + b e2| and the intersection results of :meth:`_intersect`."""
+        v = u[None] + a[:, None] * e1[None] + b[:, None] * e2[None]
+        norm_v = np.linalg.norm(v, axis=-1)
+        d = v / norm_v[:, None]
+        world_d = sensor_pose.transform_vectors(d)
+        origin = np.broadcast_to(sensor_pose.translation, world_d.shape).copy()
+        return d, norm_v, self._intersect(origin, world_d)
+
+    def _refine_mask(self, inside, t, n_w, shape):
+        """(n, n) cells to split: a 4-neighbour differs in hit, shape, normal or depth; grown by one."""
+        hit = np.isfinite(t)
+        cos_max = np.cos(self.settings.refine_normal_angle)
+        refine = np.zeros_like(inside)
+        for axis in (0, 1):  # the two grid directions
+            sl_a = (slice(None, -1), slice(None)) if axis == 0 else (slice(None), slice(None, -1))
+            sl_b = (slice(1, None), slice(None)) if axis == 0 else (slice(None), slice(1, None))
+            both = inside[sl_a] & inside[sl_b]
+            both_hit = hit[sl_a] & hit[sl_b]
+            depth_a = np.where(hit[sl_a], t[sl_a], 0.0)
+            depth_b = np.where(hit[sl_b], t[sl_b], 0.0)
+            differ = (hit[sl_a] != hit[sl_b]) | (shape[sl_a] != shape[sl_b]) | (both_hit & (
+                (np.abs(np.sum(n_w[sl_a] * n_w[sl_b], axis=-1)) < cos_max)
+                | (np.abs(depth_a - depth_b) > 0.05 * np.maximum(depth_a, depth_b))))
+            differ &= both
+            refine[sl_a] |= differ
+            refine[sl_b] |= differ
+        # Grow by one cell (8-neighbourhood): an edge or corner can cross a cell whose own ray
+        # and 4-neighbours all agree.
+        return binary_dilation(refine, structure=np.ones((3, 3), bool)) & inside
+
     def trace(self, sensor_pose: Pose, direction, seed: int = 0) -> TraceResult:
         """Trace one beam steered to ``direction`` (3,) (sensor frame) from ``sensor_pose``.
 
@@ -336,35 +391,50 @@ class AcousticTracer:
         steering = g.steering_delays(u, self.c)
         rng = np.random.default_rng(seed)
         e1, e2 = orthonormal_basis(u)
-        aa, bb, da, db, taper = self._grid
-        v = u[None] + aa[:, None] * e1[None] + bb[:, None] * e2[None]
-        norm_v = np.linalg.norm(v, axis=-1)
-        d = v / norm_v[:, None]
-        world_d = sensor_pose.transform_vectors(d)
-        origin = np.broadcast_to(sensor_pose.translation, world_d.shape)
-        t, p_w, n_w, mats = self._intersect(np.array(origin), world_d)
-        hit = np.isfinite(t) & (mats >= 0)
+        aa, bb, da, db, inside = self._grid
+        shape2d = aa.shape
+        d, norm_v, (t, p_w, n_w, mats, shape) = self._cast(sensor_pose, u, e1, e2, aa.ravel(), bb.ravel())
+        a, b, wa, wb = aa.ravel(), bb.ravel(), da.ravel(), db.ravel()
+        keep = inside.ravel().copy()
+        m = self.settings.refine
+        if m > 1 and self.settings.model == "physical":
+            split = self._refine_mask(inside, t.reshape(shape2d), n_w.reshape(shape2d + (3,)),
+                                      shape.reshape(shape2d)).ravel()
+            if np.any(split):
+                keep &= ~split
+                frac = (np.arange(m) + 0.5) / m - 0.5
+                fa, fb = np.meshgrid(frac, frac, indexing="ij")
+                ca = (a[split, None] + fa.ravel()[None] * wa[split, None]).ravel()
+                cb = (b[split, None] + fb.ravel()[None] * wb[split, None]).ravel()
+                cwa = np.repeat(wa[split] / m, m * m)
+                cwb = np.repeat(wb[split] / m, m * m)
+                cd, cnorm, (ct, cp, cn, cmat, _) = self._cast(sensor_pose, u, e1, e2, ca, cb)
+                a, b, wa, wb = (np.concatenate([x[keep], y]) for x, y in
+                                ((a, ca), (b, cb), (wa, cwa), (wb, cwb)))
+                d, norm_v = np.concatenate([d[keep], cd]), np.concatenate([norm_v[keep], cnorm])
+                t, p_w = np.concatenate([t[keep], ct]), np.concatenate([p_w[keep], cp])
+                n_w, mats = np.concatenate([n_w[keep], cn]), np.concatenate([mats[keep], cmat])
+                keep = np.ones(len(a), bool)
+        hit = keep & np.isfinite(t) & (mats >= 0)
         to_sensor = sensor_pose.inverse()
         x = to_sensor.transform_points(p_w[hit])
         n = _unit(to_sensor.transform_vectors(n_w[hit]))
         d_h = d[hit]
         n = np.where(_rows_dot(d_h, n)[:, None] > 0, -n, n)  # face the incoming ray
         mats_h = mats[hit]
+        taper = self._taper(a[hit], b[hit])
         visible = self._visibility(sensor_pose, x, n)
         tx_virtual = np.broadcast_to(g.tx_positions[None], (len(x),) + g.tx_positions.shape)
-        if self.settings.model == "paper":
-            dd1 = dd2 = np.zeros_like(x)
-        else:
-            inv = (1.0 / norm_v[hit])[:, None]
-            dd1 = (e1[None] - d_h * (d_h @ e1)[:, None]) * inv * da[hit][:, None]
-            dd2 = (e2[None] - d_h * (d_h @ e2)[:, None]) * inv * db[hit][:, None]
+        inv = (1.0 / norm_v[hit])[:, None]
+        dd1 = (e1[None] - d_h * (d_h @ e1)[:, None]) * inv * wa[hit][:, None]
+        dd2 = (e2[None] - d_h * (d_h @ e2)[:, None]) * inv * wb[hit][:, None]
         parts = self._scatter(x, n, mats_h, d_h, dd1, dd2, t[hit], tx_virtual, x, steering,
-                              taper[hit].astype(complex), visible, rng)
+                              taper.astype(complex), visible, rng)
         if self.settings.max_bounces == 2 and self.settings.model == "physical":
             parts += self._second_bounce(sensor_pose, x, n, mats_h, d_h, dd1, dd2, t[hit],
-                                         taper[hit], steering, rng)
+                                         taper, steering, rng)
         paths = Paths.concatenate(parts)
-        return TraceResult(paths, x, mats_h, len(d))
+        return TraceResult(paths, x, mats_h, int(keep.sum()))
 
     def _visibility(self, sensor_pose: Pose, points, normals) -> np.ndarray:
         """(H, N_rx) 1.0 where receive element j sees hit h, else 0.0."""
@@ -382,7 +452,7 @@ class AcousticTracer:
         reflect = lambda v: v - 2 * _rows_dot(v, n1)[:, None] * n1  # noqa: E731
         d2 = reflect(d1)
         start = sensor_pose.transform_points(x1 + _EPS * n1)
-        t, p_w, n_w, mats = self._intersect(start, sensor_pose.transform_vectors(d2))
+        t, p_w, n_w, mats, _ = self._intersect(start, sensor_pose.transform_vectors(d2))
         hit = np.isfinite(t) & (mats >= 0)
         if not np.any(hit):
             return []
