@@ -70,6 +70,8 @@ class TraceSettings:
             refine x refine sub-rays (1 disables refinement).
         refine_normal_angle: normal difference between neighbouring cells that triggers
             refinement [rad].
+        refine_radius: only cells within this angle of the beam axis are refined [rad] (further
+            out the two-way beam is in its side lobes).
         max_bounces: 1 (single scattering) or 2 (plus one specular bounce before).
         shadow_rays: test the visibility of every receive element from every hit.
         air_absorption: apply ISO 9613-1 absorption along the paths.
@@ -87,6 +89,7 @@ class TraceSettings:
     importance_floor: float = 0.2
     refine: int = 4
     refine_normal_angle: float = np.radians(10.0)
+    refine_radius: float = np.radians(10.0)
     max_bounces: int = 1
     shadow_rays: bool = True
     air_absorption: bool = True
@@ -107,6 +110,7 @@ class TraceSettings:
         if int(self.refine) != self.refine or not 1 <= self.refine <= 16:
             raise ValueError(f"TraceSettings.refine must be an integer in 1..16, got {self.refine}")
         check_range("TraceSettings.refine_normal_angle [rad]", self.refine_normal_angle, 0.0, np.pi)
+        check_range("TraceSettings.refine_radius [rad]", self.refine_radius, 0.0, np.pi / 2)
         if self.max_bounces not in (1, 2):
             raise ValueError(f"TraceSettings.max_bounces must be 1 or 2, got {self.max_bounces}")
         check_range("TraceSettings.crosstalk_gain", self.crosstalk_gain, 0.0, 1e3)
@@ -191,6 +195,7 @@ class AcousticTracer:
             aa, bb = np.meshgrid(centres, centres, indexing="ij")
             da, db = np.meshgrid(widths, widths, indexing="ij")
             self._grid = (aa, bb, da, db, np.hypot(aa, bb) <= half)
+            self._refinable = np.hypot(aa, bb) <= np.tan(s.refine_radius)
 
     def _taper(self, a, b):
         """Weight of a ray at tangent-plane offsets (a, b): 1 inside, fading to 0 at the cone edge."""
@@ -398,8 +403,8 @@ class AcousticTracer:
         keep = inside.ravel().copy()
         m = self.settings.refine
         if m > 1 and self.settings.model == "physical":
-            split = self._refine_mask(inside, t.reshape(shape2d), n_w.reshape(shape2d + (3,)),
-                                      shape.reshape(shape2d)).ravel()
+            split = (self._refine_mask(inside, t.reshape(shape2d), n_w.reshape(shape2d + (3,)),
+                                       shape.reshape(shape2d)) & self._refinable).ravel()
             if np.any(split):
                 keep &= ~split
                 frac = (np.arange(m) + 0.5) / m - 0.5

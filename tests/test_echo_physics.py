@@ -1,0 +1,184 @@
+"""Ray-traced echoes against analytic references: walls, materials, glass, steering, tilt.
+
+The sensor sits at the world origin looking along +z (world frame = sensor frame); walls are
+large rectangles. References are the exact image-source echo of an infinite plane (tests/reference)
+and the array's beam-pattern model.
+"""
+
+import numpy as np
+import pytest
+
+import mitsonar
+from mitsonar.beampattern import array_factor, main_lobe_width
+from mitsonar.frames import direction_from_fov_angles
+from conftest import BROADSIDE, IDENTITY, material_xml, rectangle_xml, sphere_xml, write_scene
+from reference import image_source_paths
+
+QUIET = mitsonar.SonarConfig(noise_rms=0.0)
+RIGID = {"impedance": 1e12, "scattering": 0.0}
+
+
+def _echo_in_window(ping, sonar, path_length, half_width=0.3):
+    """Strongest envelope value [Pa] within +-half_width [m] of the given path length."""
+    c = sonar.config.medium.speed_of_sound
+    window = np.abs(ping.recording.times * c - path_length) < half_width
+    return float(ping.envelope[window].max())
+
+
+def _reference_amplitude(sonar, distance, reflection=1.0):
+    rec = sonar.synthesizer.synthesize(image_source_paths(sonar, BROADSIDE, distance, reflection), 25)
+    return sonar.processor.detect(sonar.processor.envelope(rec, BROADSIDE), rec.start_time,
+                                  BROADSIDE).amplitude
+
+
+@pytest.fixture(scope="module")
+def wall_results(tmp_path_factory):
+    """Normal-incidence rigid wall at five distances: (distance, ping, sonar)."""
+    out = []
+    for d in (0.3, 1.0, 2.0, 3.0, 5.0):
+        path = write_scene(tmp_path_factory.mktemp("wall") / "wall.xml", material_xml("wall", **RIGID),
+                           rectangle_xml("wall", (0, 0, d), size=(30, 30)))
+        sonar = mitsonar.Sonar(path, QUIET)
+        out.append((d, sonar.ping(IDENTITY, BROADSIDE), sonar))
+    return out
+
+
+def test_wall_depth_within_5_mm(wall_results):
+    for d, ping, _ in wall_results:
+        assert ping.detection.detected
+        assert abs(ping.detection.depth - d) <= 5e-3, (d, ping.detection.depth)  # measured < 0.5 mm
+
+
+def test_wall_echo_matches_image_source_within_1_db(wall_results):
+    for d, ping, sonar in wall_results:
+        ratio_db = 20 * np.log10(ping.detection.amplitude / _reference_amplitude(sonar, d))
+        assert abs(ratio_db) <= 1.0, (d, ratio_db)  # measured within 0.1 dB
+
+
+def test_wall_echo_follows_spreading_and_absorption_law(wall_results):
+    """Beyond the array's near field, amplitude x 2d x 10^(alpha 2d / 20) is constant."""
+    far = [(d, ping.detection.amplitude) for d, ping, _ in wall_results if d >= 2.0]
+    alpha = mitsonar.Medium().absorption_db_per_m(40e3)
+    normalised = [20 * np.log10(a * 2 * d) + alpha * 2 * d for d, a in far]
+    assert np.ptp(normalised) <= 1.0, normalised
+
+
+@pytest.mark.parametrize("material", ["glass", "drywall", "fabric", "foam", "light"])
+def test_reflection_follows_impedance_ratio_within_half_db(scene_file, material):
+    props = {"light": {"impedance": 3 * mitsonar.Medium().impedance}}.get(material, {"preset": material})
+    sonar_ref = mitsonar.Sonar(scene_file("ref", material_xml("m", **RIGID),
+                                          rectangle_xml("m", (0, 0, 1.5))), QUIET)
+    sonar = mitsonar.Sonar(scene_file(material, material_xml("m", scattering=0.0, **props),
+                                      rectangle_xml("m", (0, 0, 1.5))), QUIET)
+    mat = sonar.scene.materials[0]
+    r = mat.reflection_coefficient(1.0, mitsonar.Medium().impedance)
+    measured = sonar.ping(IDENTITY, BROADSIDE).detection.amplitude \
+        / sonar_ref.ping(IDENTITY, BROADSIDE).detection.amplitude
+    assert abs(20 * np.log10(measured / abs(r))) <= 0.5, (material, measured, r)
+
+
+def test_absorbers_are_clearly_weaker_than_hard_walls(scene_file):
+    amplitude = {}
+    for name in ("concrete", "glass", "drywall", "fabric", "foam"):
+        sonar = mitsonar.Sonar(scene_file(name, material_xml("m", preset=name),
+                                          rectangle_xml("m", (0, 0, 1.5))), QUIET)
+        amplitude[name] = sonar.ping(IDENTITY, BROADSIDE).detection.amplitude
+    hard = min(amplitude["concrete"], amplitude["glass"], amplitude["drywall"])
+    assert amplitude["fabric"] < hard / 1.5 and amplitude["foam"] < amplitude["fabric"] / 2, amplitude
+
+
+def test_glass_pane_returns_an_echo_at_its_distance(scene_file):
+    glass = ('<bsdf type="acoustic" id="pane"><string name="preset" value="glass"/>'
+             '<bsdf type="dielectric"/></bsdf>')
+    path = scene_file("window", glass, material_xml("wall", preset="concrete"),
+                      rectangle_xml("pane", (0, 0, 2.0), size=(1.2, 1.0)),
+                      rectangle_xml("wall", (0, 0, 4.0), size=(20, 20)))
+    sonar = mitsonar.Sonar(path)
+    det = sonar.ping(IDENTITY, BROADSIDE).detection
+    assert det.detected and abs(det.depth - 2.0) <= 5e-3, det
+
+
+@pytest.mark.slow
+def test_beam_steering_finds_small_target_and_matches_main_lobe(scene_file):
+    """A 10 cm sphere at 4 m, 8 deg right and 4 deg up: scan horizontal and vertical cuts."""
+    h0, v0, distance = np.radians(8.0), np.radians(-4.0), 4.0
+    target = direction_from_fov_angles(h0, v0)
+    config = mitsonar.SonarConfig(noise_rms=0.0, trace=mitsonar.TraceSettings(rays_per_axis=48))
+    sonar = mitsonar.Sonar(scene_file("target", material_xml("t", preset="metal", scattering=0.0),
+                                      sphere_xml("t", distance * target, 0.1)), config)
+    g = sonar.config.geometry
+    k = float(sonar.config.medium.wavenumber(sonar.config.pulse.frequency))
+    offsets = np.radians(np.arange(-5.0, 5.01, 0.5))
+    for axis in ("horizontal", "vertical"):
+        steer = [direction_from_fov_angles(h0 + o, v0) if axis == "horizontal"
+                 else direction_from_fov_angles(h0, v0 + o) for o in offsets]
+        echo = np.array([_echo_in_window(sonar.ping(IDENTITY, s), sonar, 2 * (distance - 0.1))
+                         for s in steer])
+        model = np.array([array_factor(g.tx.positions, s, target, k) * array_factor(g.rx.positions, s, target, k)
+                          for s in steer])
+        i = int(np.argmax(echo))
+        y0, y1, y2 = np.log(echo[i - 1:i + 2])
+        peak = offsets[i] + 0.5 * (y0 - y2) / (y0 - 2 * y1 + y2) * (offsets[1] - offsets[0])
+        assert abs(np.degrees(peak)) <= 0.5, (axis, np.degrees(peak))
+        width, model_width = main_lobe_width(offsets, echo), main_lobe_width(offsets, model)
+        assert abs(np.degrees(width - model_width)) <= 0.5, (axis, np.degrees(width), np.degrees(model_width))
+
+
+@pytest.mark.parametrize("tilt_deg", [20.0, 35.0])
+def test_tilted_smooth_wall_is_weak_and_never_misranged(scene_file, tilt_deg):
+    """Glass wall through (0, 0, 2 m) turned about the vertical axis, beam at broadside."""
+    normal = mitsonar.Sonar(scene_file("flat", material_xml("g", preset="glass"),
+                                       rectangle_xml("g", (0, 0, 2.0))))
+    tilted = mitsonar.Sonar(scene_file("tilted", material_xml("g", preset="glass"),
+                                       rectangle_xml("g", (0, 0, 2.0), (0, tilt_deg, 0))))
+    reference = normal.ping(IDENTITY, BROADSIDE).detection.amplitude
+    # Depth spread inside the two-way main lobe (half-width 3.5 deg) on the tilted plane.
+    tolerance = 2.0 * np.tan(np.radians(3.5)) * np.tan(np.radians(tilt_deg))
+    for seed in range(3):
+        ping = tilted.ping(IDENTITY, BROADSIDE, seed=seed)
+        echo = _echo_in_window(ping, tilted, 4.0, half_width=0.5)
+        assert 20 * np.log10(echo / reference) <= -30.0  # measured about -40 dB
+        det = ping.detection
+        assert (not det.detected and np.isnan(det.depth)) or abs(det.depth - 2.0) <= tolerance, det
+
+
+def test_specular_side_lobe_return_is_rejected_not_misranged(scene_file):
+    """A perfectly smooth wall tilted 10 deg reflects back only through the side lobes (from the
+    foot of the perpendicular, 3 cm nearer): that echo must not be reported as a depth."""
+    sonar = mitsonar.Sonar(scene_file("smooth", material_xml("g", preset="glass", scattering=0.0),
+                                      rectangle_xml("g", (0, 0, 2.0), (0, 10.0, 0))), QUIET)
+    ping = sonar.ping(IDENTITY, BROADSIDE)
+    assert _echo_in_window(ping, sonar, 2 * 2 * np.cos(np.radians(10))) > 0.01  # a real echo
+    assert not ping.detection.detected and np.isnan(ping.detection.depth)
+
+
+def test_paper_model_ranges_a_wall(scene_file):
+    sonar = mitsonar.Sonar(scene_file("paper", material_xml("w", preset="drywall"),
+                                      rectangle_xml("w", (0, 0, 2.0))), mitsonar.SonarConfig.preset("paper"))
+    det = sonar.ping(IDENTITY, BROADSIDE).detection
+    assert det.detected and abs(det.depth - 2.0) <= 5e-3, det
+
+
+def test_same_seed_same_echoes_and_open_directions_detect_nothing(scene_file):
+    sonar = mitsonar.Sonar(scene_file("room", material_xml("w", preset="drywall"),
+                                      rectangle_xml("w", (0, 0, 2.0), size=(1.0, 1.0))))
+    a = sonar.ping(IDENTITY, BROADSIDE, seed=5)
+    b = sonar.ping(IDENTITY, BROADSIDE, seed=5)
+    c = sonar.ping(IDENTITY, BROADSIDE, seed=6)
+    assert np.array_equal(a.recording.samples, b.recording.samples)
+    assert not np.array_equal(a.recording.samples, c.recording.samples)
+    open_dir = direction_from_fov_angles(np.radians(25.0), np.radians(-15.0))  # misses the panel
+    miss = sonar.ping(IDENTITY, open_dir, seed=5)
+    assert not miss.detection.detected and np.isnan(miss.detection.depth)
+    assert np.all(np.isnan(miss.detection.point))
+
+
+def test_bad_pose_and_direction_are_rejected(scene_file):
+    sonar = mitsonar.Sonar(scene_file("w", material_xml("w", preset="drywall"),
+                                      rectangle_xml("w", (0, 0, 2.0))))
+    with pytest.raises(ValueError, match="field of view"):
+        sonar.ping(IDENTITY, direction_from_fov_angles(np.radians(40.0), 0.0))
+    with pytest.raises(ValueError, match="finite"):
+        sonar.ping(IDENTITY, np.array([np.nan, 0.0, 1.0]))
+    with pytest.raises(ValueError, match="finite"):
+        mitsonar.Pose.sensor_on_robot(0.0, np.nan, 0.0)
