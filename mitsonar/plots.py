@@ -32,8 +32,7 @@ def save_scan_figure(path, scan, title: str = "") -> None:
     extent = [hs[0] - 0.5 * _step(hs), hs[-1] + 0.5 * _step(hs),
               vs[-1] + 0.5 * _step(vs), vs[0] - 0.5 * _step(vs)]
     fig, axes = plt.subplots(1, 3, figsize=(15, 4.2))
-    cmap = plt.get_cmap("viridis").copy()
-    cmap.set_bad("0.75")
+    cmap = plt.get_cmap("viridis").with_extremes(bad="0.75")
     im = axes[0].imshow(depth, extent=extent, cmap=cmap, aspect="equal")
     fig.colorbar(im, ax=axes[0], label="depth [m] (grey: no detection)")
     axes[0].set_title("depth per beam")
