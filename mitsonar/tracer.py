@@ -87,9 +87,9 @@ class TraceSettings:
     taper: float = 0.3
     main_lobe_width: float = np.radians(5.0)
     importance_floor: float = 0.2
-    refine: int = 4
+    refine: int = 3
     refine_normal_angle: float = np.radians(10.0)
-    refine_radius: float = np.radians(10.0)
+    refine_radius: float = np.radians(6.0)
     max_bounces: int = 1
     shadow_rays: bool = True
     air_absorption: bool = True
