@@ -12,7 +12,7 @@ import mitsonar
 from mitsonar.beampattern import array_factor, main_lobe_width
 from mitsonar.frames import direction_from_fov_angles
 from conftest import BROADSIDE, IDENTITY, material_xml, rectangle_xml, sphere_xml, write_scene
-from reference import image_source_paths
+from mitsonar.reference import image_paths, plane_images
 
 QUIET = mitsonar.SonarConfig(noise_rms=0.0)
 RIGID = {"impedance": 1e12, "scattering": 0.0}
@@ -26,7 +26,9 @@ def _echo_in_window(ping, sonar, path_length, half_width=0.3):
 
 
 def _reference_amplitude(sonar, distance, reflection=1.0):
-    rec = sonar.synthesizer.synthesize(image_source_paths(sonar, BROADSIDE, distance, reflection), 25)
+    paths = image_paths(sonar.config, BROADSIDE, plane_images(sonar.config.geometry.tx_positions, distance),
+                        reflection)
+    rec = sonar.synthesizer.synthesize(paths, 25)
     return sonar.processor.detect(sonar.processor.envelope(rec, BROADSIDE), rec.start_time,
                                   BROADSIDE).amplitude
 
@@ -188,8 +190,6 @@ def test_second_bounce_reproduces_the_dihedral_image_source(scene_file):
     """A 90 deg corner (vertical edge 2 m ahead, faces at +-45 deg) returns the beam by two
     specular bounces: with ``max_bounces=2`` the echo equals the double image source (the
     transmit array rotated 180 deg about the edge), which single scattering misses."""
-    from mitsonar.synthesis import Paths
-
     d, s45 = 2.0, np.sqrt(0.5)
     path = scene_file("corner", material_xml("m", **RIGID),
                       rectangle_xml("m", (0.5 * s45, 0, d - 0.5 * s45), (0, 45, 0), size=(1.0, 2.0)),
@@ -198,17 +198,9 @@ def test_second_bounce_reproduces_the_dihedral_image_source(scene_file):
     sonar = mitsonar.Sonar(path, mitsonar.SonarConfig(noise_rms=0.0,
                                                       trace=mitsonar.TraceSettings(max_bounces=2)))
     double = sonar.ping(IDENTITY, BROADSIDE).detection
-    cfg = sonar.config
-    g, element = cfg.geometry, cfg.transducer
-    image = g.tx_positions * [-1, 1, -1] + [0, 0, 2 * d]
-    v = g.rx_positions[None] - image[:, None]
-    length = np.linalg.norm(v, axis=-1)
-    k = float(cfg.medium.wavenumber(cfg.pulse.frequency))
-    gain = element.source_amplitude * element.directivity(-v[..., 2] / length, k) ** 2 / length \
-        * cfg.medium.amplitude_attenuation(length, cfg.pulse.frequency)
-    delay = g.steering_delays(BROADSIDE, cfg.medium.speed_of_sound)[:, None] \
-        + length / cfg.medium.speed_of_sound
-    ref = Paths(gain.ravel().astype(complex), delay.ravel(), np.tile(np.arange(25), 25))
+    # Double image: the transmit array rotated 180 deg about the edge (x = 0, z = d).
+    image = sonar.config.geometry.tx_positions * [-1, 1, -1] + [0, 0, 2 * d]
+    ref = image_paths(sonar.config, BROADSIDE, image)
     rec = sonar.synthesizer.synthesize(ref, 25)
     expected = sonar.processor.detect(sonar.processor.envelope(rec, BROADSIDE), rec.start_time,
                                       BROADSIDE).amplitude
