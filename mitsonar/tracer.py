@@ -16,8 +16,8 @@ For one beam direction u (sensor frame):
      (cos theta_i + cos theta_o) times the patch integral of the linear phase, A sinc sinc, times
      sqrt(1 - s). Summed over patches this reproduces the image-source echo of a flat wall and
      the weak return of a tilted one.
-   * diffuse part, Lambert: |r| sqrt(s A cos theta_i cos theta_o / pi), with a random sub-period
-     delay per patch (surface roughness) drawn from the ping's seed.
+   * diffuse part, Lambert: |r| sqrt(s A cos theta_i cos theta_o / pi), with a random phase per
+     patch (surface roughness, constant over the pulse's narrow band) drawn from the ping's seed.
    Contributions fade to zero over the outer ``taper`` of the cone, so the cone's edge radiates
    no artificial edge wave.
 5. ``max_bounces=2`` adds specular multipath: specular rays continue once, and the second patch is
@@ -338,17 +338,19 @@ class AcousticTracer:
         obliquity = cos_in[:, :, None] + cos_out[:, None, :]
         scale = 1j * self.k / (4 * np.pi) * area * np.sqrt(1 - s) * extra_gain
         specular = scale[:, None, None] * obliquity * patch
-        out = [Paths.from_factors(tx_gain * r * tx_ok, tx_delay, rx_gain * rx_ok, rx_delay, specular)]
-        sel = s > 0
-        if np.any(sel):
-            # Lambert: |r| sqrt(s A cos_in cos_out / pi), random sub-period delay per patch.
-            jitter = rng.uniform(-0.5, 0.5, len(points)) * (2 * np.pi / (self.k * self.c))
+        tx_s, rx_s = tx_gain * r * tx_ok, rx_gain * rx_ok
+        gain = tx_s[:, :, None] * rx_s[:, None, :] * specular
+        if np.any(s > 0):
+            # Lambert: |r| sqrt(s A cos_in cos_out / pi), with a random phase per patch (surface
+            # roughness; constant over the narrow band of the pulse), so it shares the delays.
+            roughness = np.exp(2j * np.pi * rng.uniform(0.0, 1.0, len(points)))
             tx_d = tx_gain * np.abs(r) * np.sqrt(np.clip(cos_in, 0, None))
             rx_d = rx_gain * np.sqrt(np.clip(cos_out, 0, None))
-            mid = np.sqrt(s * area / np.pi) * extra_gain
-            out.append(Paths.from_factors(tx_d[sel], tx_delay[sel] + jitter[sel, None],
-                                          rx_d[sel], rx_delay[sel], mid[sel]))
-        return out
+            mid = np.sqrt(s * area / np.pi) * extra_gain * roughness
+            gain = gain + tx_d[:, :, None] * rx_d[:, None, :] * mid[:, None, None]
+        delay = tx_delay[:, :, None] + rx_delay[:, None, :]
+        channel = np.broadcast_to(np.arange(g.rx.count), gain.shape)
+        return [Paths(gain.ravel(), delay.ravel(), channel.ravel())]
 
     # ---- public ----------------------------------------------------------------------------
     def _cast(self, sensor_pose: Pose, u, e1, e2, a, b):
