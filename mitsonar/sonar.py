@@ -235,19 +235,21 @@ class Sonar:
         """
         dirs = np.asarray(directions, dtype=float).reshape(-1, 3)
         self.config.geometry.check_in_fov(dirs)
-        pings = []
+        n_rx = self.config.geometry.rx.count
+        echoes = np.empty((len(dirs), n_rx, self.synthesizer.n_samples), dtype=np.float32)
+        detections = []
         for b, u in enumerate(dirs):  # one beam at a time: each beam is a vectorised trace
-            pings.append(self.ping(pose, u, seed=_beam_seed(seed, b)))
+            ping = self.ping(pose, u, seed=_beam_seed(seed, b))
+            echoes[b] = ping.recording.samples  # keep the echoes and the decision, not the paths
+            detections.append(ping.detection)
             if progress is not None:
                 progress(b)
-        det = [p.detection for p in pings]
         return Scan(pose=pose, directions=dirs,
-                    detected=np.array([d.detected for d in det]),
-                    depth=np.array([d.depth for d in det]),
-                    amplitude=np.array([d.amplitude for d in det]),
-                    points_sensor=np.array([d.point for d in det]).reshape(-1, 3),
-                    echoes=np.stack([p.recording.samples for p in pings]).astype(np.float32),
-                    sample_rate=self.synthesizer.sample_rate,
+                    detected=np.array([d.detected for d in detections], dtype=bool),
+                    depth=np.array([d.depth for d in detections]),
+                    amplitude=np.array([d.amplitude for d in detections]),
+                    points_sensor=np.array([d.point for d in detections]).reshape(-1, 3),
+                    echoes=echoes, sample_rate=self.synthesizer.sample_rate,
                     start_time=self.synthesizer.start_time)
 
 

@@ -20,6 +20,10 @@ from __future__ import annotations
 import mitsuba as mi
 
 from mitsonar.materials import AcousticMaterial, preset
+from mitsonar.scene import VARIANT
+
+if mi.variant() is None:  # the class below derives from a variant-specific mi.BSDF
+    mi.set_variant(VARIANT)
 
 PLUGIN_NAME = "acoustic"
 _KNOWN = {"preset", "impedance", "absorption", "scattering"}
@@ -77,6 +81,9 @@ class AcousticBSDF(mi.BSDF):
 
     def eval_pdf(self, ctx, si, wo, active=True):
         return self.nested.eval_pdf(ctx, si, wo, active)
+
+    def eval_null_transmission(self, si, active=True):
+        return self.nested.eval_null_transmission(si, active)
 
     def traverse(self, callback):
         self.nested.traverse(callback)
