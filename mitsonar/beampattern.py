@@ -198,19 +198,58 @@ def peak_side_lobe_levels(positions, steers, directions, transducer: Transducer,
     Returns:
         (S,) PSLL as a ratio (20 log10 for dB); 0 if no direction lies outside the main lobe.
     """
+    if rx_positions is None:
+        return pair_side_lobe_levels(positions, positions, steers, directions, transducer,
+                                     wavenumber, main_lobe_radius, block_size)["tx"]
+    return pair_side_lobe_levels(positions, rx_positions, steers, directions, transducer,
+                                 wavenumber, main_lobe_radius, block_size)["two_way"]
+
+
+def pair_side_lobe_levels(tx_positions, rx_positions, steers, directions, transducer: Transducer,
+                          wavenumber: float, main_lobe_radius: float,
+                          block_size: int = 4_000_000) -> dict:
+    """:func:`peak_side_lobe_levels` of the transmit, the receive and the two-way pattern at once
+    (the array factors are computed once and shared).
+
+    Returns:
+        {'tx': (S,), 'rx': (S,), 'two_way': (S,)} PSLL as amplitude ratios.
+    """
     s = np.asarray(steers, dtype=float).reshape(-1, 3)
     d = np.asarray(directions, dtype=float).reshape(-1, 3)
     r2 = np.sin(main_lobe_radius) ** 2
+    elem = transducer.directivity(d[:, 2], wavenumber)
+    peak = transducer.directivity(s[:, 2], wavenumber)
     per_block = max(1, block_size // max(len(d), 1))
-    out = np.empty(len(s))
+    out = {name: np.empty(len(s)) for name in ("tx", "rx", "two_way")}
     for start in range(0, len(s), per_block):  # blocks of steering directions: memory only
-        blk = s[start:start + per_block]
-        pat = steered_patterns(positions, blk, d, transducer, wavenumber, rx_positions)
-        peak = transducer.directivity(blk[:, 2], wavenumber) ** (1 if rx_positions is None else 2)
-        dist2 = np.sum((d[None, :, :2] - blk[:, None, :2]) ** 2, axis=-1)
-        pat[dist2 < r2] = 0.0
-        out[start:start + per_block] = pat.max(axis=1) / peak
+        blk = slice(start, start + per_block)
+        outside = np.sum((d[None, :, :2] - s[blk, None, :2]) ** 2, axis=-1) >= r2
+        tx = elem * steered_array_factors(tx_positions, s[blk], d, wavenumber) * outside
+        rx = elem * steered_array_factors(rx_positions, s[blk], d, wavenumber) * outside
+        out["tx"][blk] = tx.max(axis=1) / peak[blk]
+        out["rx"][blk] = rx.max(axis=1) / peak[blk]
+        out["two_way"][blk] = (tx * rx).max(axis=1) / peak[blk] ** 2
     return out
+
+
+def cut_directions(steers, half_span: float, count: int):
+    """Horizontal and vertical cuts of field-of-view angles through each steering direction.
+
+    Args:
+        steers: (S, 3) steering directions.
+        half_span: half length of each cut [rad].
+        count: samples per cut.
+
+    Returns:
+        angles (S, 2, K) [rad] (the horizontal angle along cut 0, the vertical along cut 1) and
+        the directions (S, 2, K, 3).
+    """
+    s = np.asarray(steers, dtype=float).reshape(-1, 3)
+    hs, vs = fov_angles(s)
+    offset = np.linspace(-half_span, half_span, count)
+    h = np.stack([hs[:, None] + offset, np.broadcast_to(hs[:, None], (len(s), count))], axis=1)
+    v = np.stack([np.broadcast_to(vs[:, None], (len(s), count)), vs[:, None] + offset], axis=1)
+    return np.stack([h[:, 0], v[:, 1]], axis=1), direction_from_fov_angles(h, v)
 
 
 def cut_widths(positions, steers, transducer: Transducer, wavenumber: float, half_span: float,
@@ -219,7 +258,8 @@ def cut_widths(positions, steers, transducer: Transducer, wavenumber: float, hal
 
     For each steering direction the pattern is sampled along the horizontal angle (vertical angle
     fixed) and along the vertical angle (horizontal fixed) through the steering direction, over
-    +-``half_span`` [rad] with ``count`` samples, and :func:`main_lobe_widths` measures the lobe.
+    +-``half_span`` [rad] with ``count`` samples (:func:`cut_directions`), and
+    :func:`main_lobe_widths` measures the lobe.
 
     Args:
         positions: (N, 2|3) (transmit) element centres [m].
@@ -229,15 +269,9 @@ def cut_widths(positions, steers, transducer: Transducer, wavenumber: float, hal
     Returns:
         (S, 2) widths [rad]: column 0 horizontal, column 1 vertical (NaN if the cut is too short).
     """
-    s = np.asarray(steers, dtype=float).reshape(-1, 3)
-    hs, vs = fov_angles(s)
-    offset = np.linspace(-half_span, half_span, count)
-    h = np.stack([hs[:, None] + offset, np.broadcast_to(hs[:, None], (len(s), count))], axis=1)
-    v = np.stack([np.broadcast_to(vs[:, None], (len(s), count)), vs[:, None] + offset], axis=1)
-    u = direction_from_fov_angles(h, v)  # (S, 2, K, 3)
-    steer = s[:, None, None, :]
+    angles, u = cut_directions(steers, half_span, count)
+    steer = np.asarray(steers, dtype=float).reshape(-1, 3)[:, None, None, :]
     pattern = one_way_pattern(positions, steer, u, transducer, wavenumber)
     if rx_positions is not None:
         pattern = pattern * one_way_pattern(rx_positions, steer, u, transducer, wavenumber)
-    angles = np.stack([h[:, 0], v[:, 1]], axis=1)  # (S, 2, K)
     return main_lobe_widths(angles, pattern)
