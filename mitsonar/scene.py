@@ -52,6 +52,7 @@ class AcousticScene:
         shape_ids: id of every shape, in ``scene.shapes()`` order.
         materials: distinct acoustic materials.
         shape_material: (n_shapes,) index into ``materials`` per shape.
+        registry_ids: (n_shapes,) Dr.Jit registry id of each shape (what ``si.shape`` holds).
         material_of_registry_id: table from a shape's Dr.Jit registry id to its material index
             (-1 for ids that are not shapes of this scene).
     """
@@ -61,6 +62,7 @@ class AcousticScene:
     shape_ids: list
     materials: list
     shape_material: np.ndarray
+    registry_ids: np.ndarray
     material_of_registry_id: np.ndarray
 
     def material_index(self, shape_ptr) -> np.ndarray:
@@ -120,4 +122,5 @@ def load_scene(path, default_material: AcousticMaterial | None = None) -> Acoust
                       stacklevel=2)
     table = np.full(registry_ids.max() + 1, -1, dtype=np.int64)
     table[registry_ids] = shape_material
-    return AcousticScene(path, scene, [s.id() for s in shapes], materials, shape_material, table)
+    return AcousticScene(path, scene, [s.id() for s in shapes], materials, shape_material,
+                         registry_ids, table)

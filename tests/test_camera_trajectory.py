@@ -1,0 +1,113 @@
+"""Camera model against equations (10)(11) and Mitsuba's renderer; trajectories and odometry."""
+
+import numpy as np
+import pytest
+
+import mitsonar
+from mitsonar.camera import CameraModel, CameraRenderer
+from mitsonar.frames import direction_from_angles
+from mitsonar.trajectory import OdometryDrift, Trajectory
+from conftest import IDENTITY, material_xml, rectangle_xml
+
+SMALL = CameraModel().at_resolution(160)
+
+
+def test_intrinsics_cover_the_array_field_of_view():
+    cam = CameraModel()
+    assert cam.focal_pixels == pytest.approx(6e-3 / 4.5e-6)
+    assert np.degrees(cam.horizontal_fov) > 60.0
+    assert np.degrees(2 * np.arctan(cam.height / 2 / cam.focal_pixels)) > 40.0
+    low = cam.at_resolution(400)
+    assert low.height == 300 and low.horizontal_fov == pytest.approx(cam.horizontal_fov)
+
+
+def test_pixel_to_ray_and_back_through_equations_10_11(scene_file):
+    """Point -> pixel -> (theta, phi) by (10)(11) -> ray from the camera -> the same point."""
+    scene = mitsonar.load_scene(scene_file("w", material_xml("w", preset="drywall"),
+                                           rectangle_xml("w", (0.3, 0.2, 3.0), (20, 30, 0), size=(8, 8))))
+    renderer = CameraRenderer(scene, SMALL)
+    camera_pose = SMALL.world_from_camera(IDENTITY)
+    rng = np.random.default_rng(1)
+    uv = rng.uniform([10, 10], [150, 110], size=(20, 2))
+    theta, phi = SMALL.pixel_angles(uv[:, 0], uv[:, 1])
+    d = camera_pose.transform_vectors(direction_from_angles(theta, phi))
+    mi = renderer.mi
+    o = camera_pose.translation
+    si = scene.scene.ray_intersect(mi.Ray3f(mi.Point3f(*[mi.Float(np.full(20, o[k])) for k in range(3)]),
+                                            mi.Vector3f(*[mi.Float(d[:, k]) for k in range(3)])))
+    hit = np.asarray(si.p, dtype=float).T
+    back = SMALL.project(camera_pose.inverse().transform_points(hit))
+    np.testing.assert_allclose(back, uv, atol=1e-4)  # sub-pixel (1e-4 px)
+
+
+def test_rendered_image_agrees_with_the_pinhole_model(scene_file):
+    """A small emitter at a known point lights the pixel the model projects it to."""
+    target = np.array([0.4, -0.25, 2.5])  # sensor frame = world frame here
+    lamp = (f'<shape type="sphere"><point name="center" x="{target[0]}" y="{target[1]}" '
+            f'z="{target[2]}"/><float name="radius" value="0.02"/>'
+            '<emitter type="area"><rgb name="radiance" value="50"/></emitter><ref id="w"/></shape>')
+    scene = mitsonar.load_scene(scene_file("lamp", material_xml("w", preset="drywall"), lamp,
+                                           rectangle_xml("w", (0, 0, 6.0), size=(20, 20))))
+    renderer = CameraRenderer(scene, CameraModel(spp=4).at_resolution(320))
+    images = renderer.render(IDENTITY, seed=0)
+    bright = images.gray > 10.0  # the lamp's disc (radius about 2 px)
+    vv, uu = np.nonzero(bright)
+    centroid = np.array([uu.mean() + 0.5, vv.mean() + 0.5])
+    expected = renderer.model.project(renderer.model.camera_from_sensor().transform_points(target))
+    assert np.hypot(*(centroid - expected)) <= 0.5  # pixels
+
+
+def test_camera_depth_matches_sonar_depth_on_a_wall(scene_file):
+    path = scene_file("w", material_xml("w", preset="concrete"), rectangle_xml("w", (0, 0, 2.5), size=(20, 20)))
+    sonar = mitsonar.Sonar(path)
+    renderer = CameraRenderer(sonar.scene, SMALL)
+    depth, _ = renderer.ground_truth(SMALL.world_from_camera(IDENTITY))
+    for u, v in [(80.5, 60.5), (86.5, 63.5)]:
+        theta, phi = SMALL.pixel_angles(u, v)
+        det = sonar.ping(IDENTITY, direction_from_angles(theta, phi)).detection
+        camera_range = depth[int(v), int(u)] / np.cos(theta)  # along the same direction
+        assert det.detected and abs(det.depth - camera_range) <= 5e-3
+
+
+def test_glass_is_transparent_to_the_camera_and_reflective_to_the_sonar(scene_file):
+    glass = ('<bsdf type="acoustic" id="pane"><string name="preset" value="glass"/>'
+             '<bsdf type="thindielectric"/></bsdf>')
+    light = ('<shape type="rectangle"><transform name="to_world"><scale x="10" y="10"/>'
+             '<rotate y="1" angle="180"/><translate z="4"/></transform>'
+             '<emitter type="area"><rgb name="radiance" value="1"/></emitter><ref id="back"/></shape>')
+    path = scene_file("pane", glass, material_xml("back", preset="drywall"), light, rectangle_xml("pane", (0, 0, 2.0), size=(3, 3)))
+    sonar = mitsonar.Sonar(path)
+    images = CameraRenderer(sonar.scene, CameraModel(spp=2).at_resolution(64)).render(IDENTITY)
+    centre = images.gray[20:28, 28:36].mean()
+    assert centre > 0.8  # the light behind the pane shows through (transmittance ~0.92)
+    det = sonar.ping(IDENTITY, np.array([0.0, 0.0, 1.0])).detection
+    assert det.detected and abs(det.depth - 2.0) <= 5e-3
+
+
+def test_trajectory_timing_and_poses():
+    traj = Trajectory(np.array([[0, 0, 0], [1, 0, 0], [1, 0, np.pi / 2], [1, 1, np.pi / 2]]),
+                      speed=0.5, yaw_rate=np.pi / 4)
+    np.testing.assert_allclose(traj.segment_times(), [0, 2, 4, 6])
+    np.testing.assert_allclose(traj.poses_at([1.0, 3.0, 5.0]),
+                               [[0.5, 0, 0], [1, 0, np.pi / 4], [1, 0.5, np.pi / 2]])
+    times, poses = traj.sample(0.5)
+    assert len(times) == 13 and np.allclose(poses[-1], [1, 1, np.pi / 2])
+    with pytest.raises(ValueError, match="waypoint 1"):
+        Trajectory(np.array([[0, 0, 0], [np.nan, 0, 0]]))
+
+
+def test_shipped_scene_trajectory_loads():
+    traj = Trajectory.from_scene("scenes/room_glass/scene.xml")
+    assert traj.duration > 10 and np.allclose(traj.waypoints[0], 0)
+
+
+def test_odometry_drift_is_seeded_and_grows_with_distance():
+    traj = Trajectory(np.array([[0, 0, 0], [4, 0, 0]]), speed=0.2)
+    _, truth = traj.sample(0.1)
+    exact = OdometryDrift(0.0, 0.0, 0.0).apply(truth, seed=0)
+    np.testing.assert_allclose(exact, truth, atol=1e-12)
+    drift = OdometryDrift()
+    a, b = drift.apply(truth, seed=3), drift.apply(truth, seed=3)
+    assert np.array_equal(a, b)
+    errors = np.array([np.abs(OdometryDrift().apply(truth, seed=s) - truth)[:, 1] for s in range(40)])
+    assert errors[:, -1].mean() > 3 * errors[:, len(truth) // 4].mean()  # lateral drift grows
