@@ -11,6 +11,8 @@ configure_llvm()
 from .array import ArrayGeometry, ArrayLayout  # noqa: E402
 from .frames import (Pose, angles_from_direction, direction_from_angles,  # noqa: E402
                      direction_from_fov_angles, fov_angles)
+from .camera import CameraModel, CameraRenderer  # noqa: E402
+from .dataset import DatasetSpec, open_dataset, render_dataset  # noqa: E402
 from .materials import PRESETS, AcousticMaterial, preset  # noqa: E402
 from .medium import Medium  # noqa: E402
 from .processing import Detection, DetectionSettings  # noqa: E402
@@ -18,9 +20,12 @@ from .scene import AcousticScene, SceneError, load_scene  # noqa: E402
 from .signals import Pulse  # noqa: E402
 from .sonar import Ping, Scan, Sonar, SonarConfig  # noqa: E402
 from .tracer import TraceSettings  # noqa: E402
+from .trajectory import OdometryDrift, Trajectory  # noqa: E402
 from .transducer import Transducer  # noqa: E402
 
-__all__ = ["AcousticMaterial", "AcousticScene", "ArrayGeometry", "ArrayLayout", "Detection",
+__all__ = ["AcousticMaterial", "AcousticScene", "ArrayGeometry", "ArrayLayout", "CameraModel",
+           "CameraRenderer", "DatasetSpec", "Detection", "OdometryDrift", "Trajectory",
+           "open_dataset", "render_dataset",
            "DetectionSettings", "Medium", "PRESETS", "Ping", "Pose", "Pulse", "Scan", "SceneError",
            "Sonar", "SonarConfig", "TraceSettings", "Transducer", "angles_from_direction",
            "direction_from_angles", "direction_from_fov_angles", "fov_angles", "load_scene",

@@ -1,0 +1,96 @@
+"""Datasets: exact round trip, interrupted renders, corruption, parallel and distributed renders."""
+
+import filecmp
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from mitsonar.dataset import DatasetError, DatasetSpec, _Renderer, open_dataset, render_dataset
+
+ROOM = str(Path(__file__).resolve().parents[1] / "scenes" / "room_glass" / "scene.xml")
+# Two samples, three beams each, tiny images: seconds, not minutes.
+SPEC = DatasetSpec(ROOM, period=2.0, scan_step=np.radians(30), image_width=24, spp=2, max_samples=2)
+
+
+def _same_tree(a: Path, b: Path) -> bool:
+    for folder in sorted(p.name for p in (a / "samples").iterdir()):
+        cmp = filecmp.dircmp(a / "samples" / folder, b / "samples" / folder)
+        if cmp.diff_files or cmp.left_only or cmp.right_only:
+            return False
+        if not all(filecmp.cmp(a / "samples" / folder / f, b / "samples" / folder / f, shallow=False)
+                   for f in cmp.common_files):
+            return False
+    return json.loads((a / "dataset.json").read_text()) == json.loads((b / "dataset.json").read_text())
+
+
+@pytest.fixture(scope="module")
+def reference(tmp_path_factory):
+    return render_dataset(SPEC, tmp_path_factory.mktemp("ds") / "reference")
+
+
+def test_write_read_round_trip_is_exact(reference):
+    ds = open_dataset(reference)
+    assert len(ds) == 2 and ds.complete()
+    renderer = _Renderer(SPEC)
+    sample = ds[1]
+    pose = sample.pose
+    from mitsonar.trajectory import sensor_poses
+    from mitsonar.dataset import _derive_seed
+
+    sensor = sensor_poses(np.array([pose["robot_pose_truth"]]))[0]
+    seed = _derive_seed(SPEC.seed, "sample", 1)
+    images = renderer.camera.render(sensor, seed=seed)
+    scan = renderer.sonar.scan(sensor, renderer.directions, seed=seed)
+    assert np.array_equal(sample.rgb, images.rgb) and np.array_equal(sample.gray, images.gray)
+    assert np.array_equal(sample.depth, images.depth)
+    assert np.array_equal(sample.shape_index, images.shape_index)
+    assert np.array_equal(sample.echoes["echoes"], scan.echoes)
+    assert np.array_equal(sample.echoes["depth"], scan.depth, equal_nan=True)
+    np.testing.assert_allclose(np.array(pose["world_from_sensor_truth"]), sensor.matrix())
+    calib = ds.meta["calibration"]
+    assert calib["image_size"] == [24, 18] and len(calib["rx_positions_m"]) == 25
+
+
+def test_killed_render_resumes_to_the_same_dataset(reference, tmp_path):
+    out = tmp_path / "resumed"
+    code = ("import numpy as np, sys; sys.path.insert(0, %r); from test_dataset import SPEC; "
+            "from mitsonar.dataset import render_dataset; render_dataset(SPEC, %r)"
+            % (str(Path(__file__).parent), str(out)))
+    proc = subprocess.Popen([sys.executable, "-c", code])
+    deadline = time.time() + 120
+    while time.time() < deadline and not (out / "samples" / "000000" / "manifest.json").exists():
+        time.sleep(0.05)
+    os.kill(proc.pid, signal.SIGKILL)  # in the middle of the second sample
+    proc.wait()
+    assert not (out / "samples" / "000001").exists()
+    render_dataset(SPEC, out)
+    assert _same_tree(reference, out)
+    assert not [p for p in (out / "samples").iterdir() if p.name.startswith(".")]
+
+
+def test_truncated_file_is_reported_by_name(reference, tmp_path):
+    import shutil
+
+    copy = tmp_path / "copy"
+    shutil.copytree(reference, copy)
+    echoes = copy / "samples" / "000000" / "echoes.npz"
+    echoes.write_bytes(echoes.read_bytes()[:-100])
+    ds = open_dataset(copy)
+    with pytest.raises(DatasetError, match="echoes.npz"):
+        ds[0]
+    assert ds[1].echoes["echoes"].shape[1] == 25  # other samples stay readable
+    with pytest.raises(DatasetError, match="another spec"):
+        render_dataset(DatasetSpec(ROOM, period=1.0, max_samples=1), copy)
+
+
+@pytest.mark.slow
+def test_local_processes_and_dask_cluster_give_the_same_dataset(reference, tmp_path):
+    assert _same_tree(reference, render_dataset(SPEC, tmp_path / "pool", workers=2))
+    assert _same_tree(reference, render_dataset(SPEC, tmp_path / "dask", workers=2, scheduler="local"))
