@@ -15,7 +15,7 @@ Order and choices:
   ``detection_floor``, and ``blanking_margin`` times the envelope of the direct
   transmitter->receiver path alone (direct-path blanking). Strongest first, a candidate is
   accepted unless it arrives from elsewhere: receive beams formed from the same recording at that
-  instant over the field of view show it ``ghost_margin`` stronger outside the main lobe than
+  instant over +-50 deg show it ``ghost_margin`` stronger outside the main lobe than
   along the beam (a side-lobe echo, e.g. the specular return of a tilted wall, which would give a
   wrong depth). No accepted candidate gives "no detection": NaN depth and ``detected = False``.
 * Depth by the bistatic (7): d = (l^2 - b^2) / (2 (l - b cos theta_b)), with theta_b the angle
@@ -48,7 +48,9 @@ class DetectionSettings:
         ghost_margin: factor by which an off-beam receive direction must beat the beam for a
             candidate to be rejected as a side-lobe arrival (0 disables the check).
         ghost_exclusion: half-angle around the beam treated as its main lobe [rad].
-        ghost_grid_step: spacing of the receive directions checked over the field of view [rad].
+        ghost_grid_step: spacing of the receive directions checked [rad].
+        ghost_half_span: the checked directions cover +-this horizontally and vertically [rad]
+            (wider than the field of view: side-lobe echoes come from anywhere in front).
         max_candidates: envelope peaks examined, strongest first.
     """
 
@@ -59,11 +61,12 @@ class DetectionSettings:
     ghost_margin: float = 2.0
     ghost_exclusion: float = np.radians(6.0)
     ghost_grid_step: float = np.radians(2.0)
+    ghost_half_span: float = np.radians(50.0)
     max_candidates: int = 8
 
     def __post_init__(self):
         for name in ("detection_snr", "detection_floor", "blanking_margin", "min_range",
-                     "ghost_exclusion", "ghost_grid_step"):
+                     "ghost_exclusion", "ghost_grid_step", "ghost_half_span"):
             check_positive(f"DetectionSettings.{name}", getattr(self, name))
         if not (np.isfinite(self.ghost_margin) and self.ghost_margin >= 0):
             raise ValueError(f"DetectionSettings.ghost_margin must be >= 0, got {self.ghost_margin}")
@@ -146,11 +149,10 @@ class EchoProcessor:
         return np.abs(self.beamform(self.compressed_spectra(recording), n, direction))
 
     def _ghost_directions(self, direction) -> np.ndarray:
-        """Receive directions (D, 3) over the field of view outside the beam's main lobe."""
-        g = self.geometry
-        step = self.settings.ghost_grid_step
-        h = np.arange(-g.fov_horizontal / 2, g.fov_horizontal / 2 + 1e-9, step)
-        v = np.arange(-g.fov_vertical / 2, g.fov_vertical / 2 + 1e-9, step)
+        """Receive directions (D, 3) in front of the array, outside the beam's main lobe."""
+        step, span = self.settings.ghost_grid_step, self.settings.ghost_half_span
+        h = np.arange(-span, span + 1e-9, step)
+        v = h
         hh, vv = np.meshgrid(h, v, indexing="ij")
         dirs = direction_from_fov_angles(hh, vv).reshape(-1, 3)
         return dirs[dirs @ direction < np.cos(self.settings.ghost_exclusion)]
