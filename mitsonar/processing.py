@@ -121,11 +121,22 @@ class EchoProcessor:
         self.synth = synthesizer
         self.c = float(speed_of_sound)
         self.settings = settings
-        w = synthesizer.system_spectrum
-        energy = float(np.sum(np.abs(w) ** 2)) / synthesizer.n_fft  # sum |w_a[m]|^2 (Parseval)
-        self._mf = 2.0 * np.conj(w) / energy  # 2: analytic spectrum of the real recording
-        self.noise_envelope_rms = 2.0 * noise_rms / np.sqrt(energy * geometry.rx.count)
-        self.carrier = synthesizer.pulse.frequency
+        self.noise_rms = float(noise_rms)
+        self._filters = {}
+
+    def _matched_filter(self, waveform=None):
+        """(filter spectrum, template energy) of a waveform: 2 conj(W) / E, E = sum |w_a|^2."""
+        key = self.synth.pulse if waveform is None else waveform
+        if key not in self._filters:
+            w = self.synth.system_spectrum(key)
+            energy = float(np.sum(np.abs(w) ** 2)) / self.synth.n_fft  # Parseval
+            self._filters[key] = (2.0 * np.conj(w) / energy, energy)  # 2: analytic of a real signal
+        return self._filters[key]
+
+    def noise_envelope_rms(self, waveform=None) -> float:
+        """RMS of the beamformed matched-filter envelope of receiver noise alone [Pa]."""
+        energy = self._matched_filter(waveform)[1]
+        return 2.0 * self.noise_rms / np.sqrt(energy * self.geometry.rx.count)
 
     def receive_delays(self, directions) -> np.ndarray:
         """Plane-wave delays t_j^B(psi) of (5) [s]: (N_rx,) for one direction (3,), (D, N_rx) for
@@ -133,9 +144,9 @@ class EchoProcessor:
         g = self.geometry
         return -(np.asarray(directions, dtype=float) @ (g.rx_positions - g.rx_origin).T) / self.c
 
-    def compressed_spectra(self, recording: Recording) -> np.ndarray:
+    def compressed_spectra(self, recording: Recording, waveform=None) -> np.ndarray:
         """Matched-filtered analytic spectra of all channels, (N_rx, n_fft)."""
-        return sfft.fft(recording.samples, n=self.synth.n_fft, axis=-1) * self._mf
+        return sfft.fft(recording.samples, n=self.synth.n_fft, axis=-1) * self._matched_filter(waveform)[0]
 
     def beamform(self, spectra: np.ndarray, n_samples: int, direction) -> np.ndarray:
         """Delay-and-sum of compressed spectra towards ``direction`` (3,): analytic (N,) [Pa]."""
@@ -143,10 +154,10 @@ class EchoProcessor:
         steer = np.exp(2j * np.pi * f[None, :] * self.receive_delays(direction)[:, None])
         return sfft.ifft((spectra * steer).mean(axis=0))[:n_samples]
 
-    def envelope(self, recording: Recording, direction) -> np.ndarray:
+    def envelope(self, recording: Recording, direction, waveform=None) -> np.ndarray:
         """Envelope (N,) [Pa] of the beamformed, matched-filtered recording."""
         n = recording.samples.shape[1]
-        return np.abs(self.beamform(self.compressed_spectra(recording), n, direction))
+        return np.abs(self.beamform(self.compressed_spectra(recording, waveform), n, direction))
 
     def _ghost_directions(self, direction) -> np.ndarray:
         """Receive directions (D, 3) in front of the array, outside the beam's main lobe."""
@@ -157,11 +168,11 @@ class EchoProcessor:
         dirs = direction_from_fov_angles(hh, vv).reshape(-1, 3)
         return dirs[dirs @ direction < np.cos(self.settings.ghost_exclusion)]
 
-    def _arrives_off_beam(self, channels, start_time, k, direction, ghost_dirs) -> bool:
+    def _arrives_off_beam(self, channels, start_time, k, direction, ghost_dirs, carrier) -> bool:
         """True if, at sample k, some receive direction outside the main lobe is ``ghost_margin``
         times stronger than the beam (narrow-band delays on the demodulated channels)."""
         fs = self.synth.sample_rate
-        w0 = 2 * np.pi * self.carrier
+        w0 = 2 * np.pi * carrier
         dirs = np.concatenate([direction[None], ghost_dirs])
         t = start_time + (k + self.receive_delays(dirs) * fs) / fs  # (D, N_rx) read times
         q = (t - start_time) * fs
@@ -175,23 +186,29 @@ class EchoProcessor:
         power = np.abs(values.mean(axis=1))
         return bool(power[1:].max(initial=0.0) > self.settings.ghost_margin * power[0])
 
-    def process(self, recording: Recording, direction, direct_envelope: np.ndarray | None = None):
+    def process(self, recording: Recording, direction, direct_envelope: np.ndarray | None = None,
+                waveform=None, transmit_time: float = 0.0, max_path_length: float | None = None):
         """Envelope (N,) [Pa] and :class:`Detection` of one beam from its recording.
 
         Args:
             recording: the per-channel echoes.
             direction: (3,) beam direction in the sensor frame.
             direct_envelope: (N,) envelope of the direct path alone, for blanking (optional).
+            waveform: the beam's drive waveform (default: the pulse); selects the matched filter.
+            transmit_time: when the beam was fired, on the recording's clock [s].
+            max_path_length: ignore echoes with a longer path [m] (e.g. the listening window).
         """
-        spectra = self.compressed_spectra(recording)
+        spectra = self.compressed_spectra(recording, waveform)
         n = recording.samples.shape[1]
         u = np.asarray(direction, dtype=float)
         envelope = np.abs(self.beamform(spectra, n, u))
-        return envelope, self.detect(envelope, recording.start_time, u, direct_envelope, spectra)
+        return envelope, self.detect(envelope, recording.start_time, u, direct_envelope, spectra,
+                                     waveform, transmit_time, max_path_length)
 
     def detect(self, envelope: np.ndarray, start_time: float, direction,
-               direct_envelope: np.ndarray | None = None,
-               spectra: np.ndarray | None = None) -> Detection:
+               direct_envelope: np.ndarray | None = None, spectra: np.ndarray | None = None,
+               waveform=None, transmit_time: float = 0.0,
+               max_path_length: float | None = None) -> Detection:
         """Time of arrival, depth and point from an envelope (N,) [Pa], or no detection.
 
         Args:
@@ -201,21 +218,27 @@ class EchoProcessor:
             direct_envelope: (N,) envelope of the direct path alone, for blanking (optional).
             spectra: compressed channel spectra (N_rx, n_fft) for the side-lobe check (optional;
                 without them every candidate is taken to arrive along the beam).
+            waveform: the beam's drive waveform (noise level and carrier of the side-lobe check).
+            transmit_time: when the beam was fired [s]; times of arrival are counted from it.
+            max_path_length: ignore echoes with a longer path [m].
         """
         s = self.settings
         fs = self.synth.sample_rate
         g = self.geometry
         u = np.asarray(direction, dtype=float)
         n = len(envelope)
-        t = start_time + np.arange(n) / fs
+        t = start_time + np.arange(n) / fs - transmit_time  # time since this beam's firing
         cos_b = float(u @ g.rx_origin) / g.baseline
         # Path length of the nearest reportable depth, from (7) solved for l.
         r_min = s.min_range
         l_min = r_min + np.sqrt(r_min**2 + g.baseline**2 - 2 * r_min * g.baseline * cos_b)
-        threshold = np.full(n, max(s.detection_snr * self.noise_envelope_rms, s.detection_floor))
+        threshold = np.full(n, max(s.detection_snr * self.noise_envelope_rms(waveform),
+                                   s.detection_floor))
         if direct_envelope is not None:
             threshold = np.maximum(threshold, s.blanking_margin * direct_envelope)
         window = self.c * t >= l_min
+        if max_path_length is not None:
+            window &= self.c * t <= max_path_length
         if not np.any(window):
             raise ValueError("the recording ends before the minimum range")
         k_max = int(np.argmax(np.where(window, envelope, -np.inf)))
@@ -228,8 +251,9 @@ class EchoProcessor:
         if len(candidates) and spectra is not None and s.ghost_margin > 0:
             channels = sfft.ifft(spectra, axis=-1)[:, :n]
             ghost_dirs = self._ghost_directions(u)
-            candidates = [k for k in candidates
-                          if not self._arrives_off_beam(channels, start_time, k, u, ghost_dirs)][:1]
+            carrier = (self.synth.pulse if waveform is None else waveform).frequency
+            candidates = [k for k in candidates if not self._arrives_off_beam(
+                channels, start_time, k, u, ghost_dirs, carrier)][:1]
         if len(candidates) == 0:
             return Detection(False, np.nan, np.nan, np.nan, nan3, amplitude, level)
         k = int(candidates[0])

@@ -20,7 +20,6 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.fft as sfft
 
-from .signals import Pulse
 from .transducer import Transducer
 from .validation import check_finite, check_positive
 
@@ -98,52 +97,69 @@ class Recording:
 class EchoSynthesizer:
     """Fast band-limited synthesis of recordings from paths, for one fixed recording window.
 
-    Construct once and reuse: the system spectrum and kernel are precomputed.
+    Construct once and reuse: the kernel and each waveform's system spectrum are precomputed.
 
     Args:
-        pulse: drive waveform.
+        pulse: the default drive waveform (anything with ``spectrum(f)``, ``duration`` and
+            ``frequency``, e.g. :class:`~mitsonar.signals.Pulse` or an OFDM code).
         transducer: element model; its response is applied twice (transmit and receive) when
             ``transducer_response`` is true.
         sample_rate: recording sample rate [Hz].
         start_time: time of the first sample [s] (negative to record the firing itself).
         duration: recording length [s].
         transducer_response: apply H_tx H_rx (false: ideal flat transducers, as in (1)(3)).
-        tolerance: relative accuracy of the band-limited synthesis (kernel aliasing and truncation).
+        tolerance: relative accuracy of the kernel (aliasing and truncation).
+        band_threshold: spectral components of the system waveform below this fraction of its
+            peak are left out (they are far below the receiver noise).
+        waveforms: further waveforms the synthesizer must serve (their bands set the kernel).
     """
 
-    def __init__(self, pulse: Pulse, transducer: Transducer, sample_rate: float, start_time: float,
-                 duration: float, transducer_response: bool = True, tolerance: float = 1e-7):
+    def __init__(self, pulse, transducer: Transducer, sample_rate: float, start_time: float,
+                 duration: float, transducer_response: bool = True, tolerance: float = 1e-6,
+                 band_threshold: float = 1e-5, waveforms=()):
         check_positive("sample_rate [Hz]", sample_rate)
         check_positive("duration [s]", duration)
         check_finite("start_time [s]", start_time)
         self.pulse = pulse
+        self.transducer = transducer
+        self.transducer_response = transducer_response
+        self.band_threshold = band_threshold
         self.sample_rate = float(sample_rate)
         self.start_time = float(start_time)
         self.n_samples = int(np.ceil(duration * sample_rate))
         # Guard samples so that the ringing of the last echoes does not wrap onto the first ones.
         ringing = 14 * transducer.decay_time if transducer_response else 0.0
-        guard = int(np.ceil((pulse.duration + ringing) * sample_rate)) + 64
+        longest = max(w.duration for w in (pulse,) + tuple(waveforms))
+        guard = int(np.ceil((longest + ringing) * sample_rate)) + 64
         self.n_fft = sfft.next_fast_len(self.n_samples + guard)
-        f = np.fft.fftfreq(self.n_fft, 1.0 / sample_rate)
-        positive = f > 0
-        w = np.zeros(self.n_fft, dtype=complex)
-        w[positive] = 2.0 * pulse.spectrum(f[positive]) * sample_rate  # analytic, per-sample scale
-        if transducer_response:
-            w[positive] *= transducer.frequency_response(f[positive]) ** 2
-        band = np.abs(w) > tolerance * np.abs(w).max()
-        band &= np.abs(f) < 0.4 * sample_rate
-        nu_max = np.abs(f[band]).max() / sample_rate
+        self._freq = np.fft.fftfreq(self.n_fft, 1.0 / sample_rate)
+        self._spectra = {}
+        nu_max = max(np.abs(self._freq[self.system_spectrum(w) != 0]).max()
+                     for w in (pulse,) + tuple(waveforms)) / sample_rate
         # Gaussian kernel (sigma in samples): aliasing from the images at fs - f stays below the
         # tolerance, and truncation stays below it after the deconvolution gain at nu_max.
         log_tol = np.log(1.0 / tolerance)
         self.sigma = float(np.sqrt(log_tol / (2 * np.pi**2 * (1 - 2 * nu_max))))
         deconv_gain = np.exp(2 * np.pi**2 * self.sigma**2 * nu_max**2)
         self.half_width = int(np.ceil(self.sigma * np.sqrt(2 * np.log(deconv_gain / tolerance))))
-        nu = f / sample_rate
-        kernel_ft = self.sigma * np.sqrt(2 * np.pi) * np.exp(-2 * np.pi**2 * self.sigma**2 * nu**2)
-        self.system_spectrum = np.where(band, w, 0.0)  # W(f) on the FFT grid (analytic, x fs)
-        self._filter = np.where(band, w / kernel_ft, 0.0)
+        nu = self._freq / sample_rate
+        self._kernel_ft = self.sigma * np.sqrt(2 * np.pi) * np.exp(-2 * np.pi**2 * self.sigma**2 * nu**2)
         self._offsets = np.arange(-self.half_width, self.half_width + 1)
+
+    def system_spectrum(self, waveform=None) -> np.ndarray:
+        """Analytic spectrum W(f) of the expected echo of a unit path (drive x H_tx x H_rx) on
+        the FFT grid, scaled per sample; zero outside the band. Cached per waveform."""
+        waveform = self.pulse if waveform is None else waveform
+        if waveform not in self._spectra:
+            f = self._freq
+            positive = f > 0
+            w = np.zeros(self.n_fft, dtype=complex)
+            w[positive] = 2.0 * waveform.spectrum(f[positive]) * self.sample_rate
+            if self.transducer_response:
+                w[positive] *= self.transducer.frequency_response(f[positive]) ** 2
+            band = (np.abs(w) > self.band_threshold * np.abs(w).max()) & (np.abs(f) < 0.4 * self.sample_rate)
+            self._spectra[waveform] = np.where(band, w, 0.0)
+        return self._spectra[waveform]
 
     def impulse_grid(self, paths: Paths, n_channels: int) -> np.ndarray:
         """Spread paths onto the (n_channels, n_fft) sample grid with the Gaussian kernel.
@@ -185,13 +201,21 @@ class EchoSynthesizer:
         grid = (acc_re.numpy() + 1j * acc_im.numpy()) / scale
         return grid.reshape(n_channels, self.n_fft)
 
-    def analytic(self, paths: Paths, n_channels: int) -> np.ndarray:
-        """Analytic recordings (n_channels, n_samples), complex [Pa]."""
-        spectrum = sfft.fft(self.impulse_grid(paths, n_channels), axis=-1) * self._filter
+    def analytic(self, paths: Paths, n_channels: int, waveform=None) -> np.ndarray:
+        """Analytic recordings (n_channels, n_samples), complex [Pa], of paths driven by
+        ``waveform`` (default: the synthesizer's pulse)."""
+        return self.analytic_sum([(paths, waveform)], n_channels)
+
+    def analytic_sum(self, groups, n_channels: int) -> np.ndarray:
+        """Analytic recording of several path sets, each with its own waveform: [(paths, waveform)]."""
+        spectrum = np.zeros((n_channels, self.n_fft), dtype=complex)
+        for paths, waveform in groups:  # one per transmitted code, each fully vectorised
+            spectrum += sfft.fft(self.impulse_grid(paths, n_channels), axis=-1) \
+                * (self.system_spectrum(waveform) / self._kernel_ft)
         return sfft.ifft(spectrum, axis=-1)[:, : self.n_samples]
 
     def synthesize(self, paths: Paths, n_channels: int, noise_rms: float = 0.0,
-                   seed: int | None = None) -> Recording:
+                   seed=None, waveform=None) -> Recording:
         """Recording of ``n_channels`` channels with additive white Gaussian receiver noise.
 
         Args:
@@ -199,14 +223,15 @@ class EchoSynthesizer:
             n_channels: number of receive channels.
             noise_rms: noise standard deviation per sample [Pa]; needs ``seed`` when > 0.
             seed: seed of the noise generator (same seed, same recording).
+            waveform: drive waveform (default: the synthesizer's pulse).
         """
-        samples = self.analytic(paths, n_channels).real
+        return self.recording(self.analytic(paths, n_channels, waveform), noise_rms, seed)
+
+    def recording(self, analytic: np.ndarray, noise_rms: float = 0.0, seed=None) -> Recording:
+        """Real recording from analytic channels, plus seeded white receiver noise [Pa]."""
+        samples = analytic.real
         if noise_rms > 0:
             if seed is None:
                 raise ValueError("noise_rms > 0 needs an explicit seed")
             samples = samples + np.random.default_rng(seed).normal(0.0, noise_rms, samples.shape)
         return Recording(samples, self.sample_rate, self.start_time)
-
-    def template(self) -> np.ndarray:
-        """Analytic system waveform w(t) for a unit path at delay 0, on the FFT grid (n_fft,)."""
-        return sfft.ifft(self.system_spectrum)

@@ -69,7 +69,7 @@ def test_noise_threshold_matches_noise_statistics(wall_path):
                                        noise_rms=0.01, seed=7)
     env = sonar.processor.envelope(rec, BROADSIDE)
     rms = np.sqrt(np.mean(env[200:-200] ** 2))
-    assert rms == pytest.approx(sonar.processor.noise_envelope_rms, rel=0.05)
+    assert rms == pytest.approx(sonar.processor.noise_envelope_rms(), rel=0.05)
     det = sonar.processor.detect(env, rec.start_time, BROADSIDE)
     assert not det.detected and np.isnan(det.depth) and np.all(np.isnan(det.point))
 
