@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from .array import ArrayGeometry
-from .frames import Pose, direction_from_fov_angles
+from .frames import Pose
 from .medium import Medium
 from .processing import Detection, DetectionSettings, EchoProcessor
 from .scene import AcousticScene, load_scene
@@ -197,14 +197,9 @@ class Sonar:
                                        cfg.detection, cfg.noise_rms)
 
     def fov_grid(self, step: float) -> np.ndarray:
-        """Directions (n_v * n_h, 3) on a grid of ``step`` [rad] over the field of view, row-major
-        from top-left (vertical outer, horizontal inner); 60 x 40 deg at 5 deg gives 9 x 13."""
-        check_positive("scan step [rad]", step)
-        g = self.config.geometry
-        h = _centred_range(g.fov_horizontal / 2, step)
-        v = _centred_range(g.fov_vertical / 2, step)
-        vv, hh = np.meshgrid(v, h, indexing="ij")
-        return direction_from_fov_angles(hh, vv).reshape(-1, 3)
+        """Beam directions on a ``step`` [rad] grid over the field of view (see
+        :meth:`~mitsonar.array.ArrayGeometry.fov_grid`)."""
+        return self.config.geometry.fov_grid(step)
 
     def ping(self, pose: Pose, direction, seed: int = 0) -> Ping:
         """Transmit one beam towards ``direction`` (3,) (sensor frame) from ``pose`` and detect.
@@ -256,8 +251,3 @@ class Sonar:
 def _beam_seed(seed: int, beam: int) -> int:
     """Independent, reproducible seed of beam ``beam`` within a scan seeded with ``seed``."""
     return int(np.random.SeedSequence([seed, beam]).generate_state(1)[0])
-
-
-def _centred_range(half: float, step: float) -> np.ndarray:
-    n = int(np.floor(half / step + 1e-9))
-    return np.arange(-n, n + 1) * step

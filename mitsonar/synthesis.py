@@ -208,10 +208,16 @@ class EchoSynthesizer:
 
     def analytic_sum(self, groups, n_channels: int) -> np.ndarray:
         """Analytic recording of several path sets, each with its own waveform: [(paths, waveform)]."""
-        spectrum = np.zeros((n_channels, self.n_fft), dtype=complex)
-        for paths, waveform in groups:  # one per transmitted code, each fully vectorised
-            spectrum += sfft.fft(self.impulse_grid(paths, n_channels), axis=-1) \
-                * (self.system_spectrum(waveform) / self._kernel_ft)
+        return self.to_analytic(sum(self.group_spectrum(p, w, n_channels) for p, w in groups))
+
+    def group_spectrum(self, paths: Paths, waveform, n_channels: int) -> np.ndarray:
+        """Analytic spectrum (n_channels, n_fft) of the echoes of ``paths`` driven by ``waveform``;
+        spectra of several groups add up to their joint recording (see :meth:`to_analytic`)."""
+        return sfft.fft(self.impulse_grid(paths, n_channels), axis=-1) \
+            * (self.system_spectrum(waveform) / self._kernel_ft)
+
+    def to_analytic(self, spectrum: np.ndarray) -> np.ndarray:
+        """Analytic recording (n_channels, n_samples) from a summed group spectrum."""
         return sfft.ifft(spectrum, axis=-1)[:, : self.n_samples]
 
     def synthesize(self, paths: Paths, n_channels: int, noise_rms: float = 0.0,

@@ -1,0 +1,286 @@
+"""OFDM multi-beam frames (paper III-C, III-E, Fig. 6): codes, schedule, simulation, decoding.
+
+Codes. Five tones 32-48 kHz, 4 kHz apart. A code is an ordered pair of tones (f_a, f_b) sent as
+one T = 0.5 ms slot: f_a for the first half, f_b for the second (the paper's "25 combinations in
+pairs", Fig. 6a). Each half holds a whole number of periods, so two different tones are
+orthogonal over a half by (9) (Delta f T/2 = 1 and (2 f1 + Delta f) T/2 integers): codes that
+differ in both halves are orthogonal, codes that share one half correlate at 1/2 when aligned;
+their echoes are separated by time (each code fires in its own slot) and by direction
+(beamforming), and what leaks between them is measured (``crosstalk_db``).
+
+Schedule. Beams are taken in order and fired one code per slot: a cycle sends up to 25 codes
+back to back (12.5 ms) and then listens for the farthest echo (30 ms for 5 m); the next cycle
+starts after that. A 60 x 40 deg field of view at 5 deg has 13 x 9 = 117 beams: 4 full cycles of
+42.5 ms and one of 17 codes (8.5 + 30 ms), 208.5 ms per frame (4.8 Hz). The schedule is data
+(direction, code, transmit time and cycle of every beam), so other grids and code sets work.
+
+Simulation. All beams of a cycle are superposed in one per-channel recording: each beam is
+traced from the sensor pose at its own transmit time (the robot moves during a frame), driven by
+its code through the transducer response, and the direct cross-talk of every code is included.
+Decoding: for each code, matched filter with its own waveform, delay-and-sum toward its
+direction, detection relative to its transmit time inside the listening window, depth by (7).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .frames import Pose
+from .signals import spectrum_of
+from .sonar import PRE_ROLL, Sonar
+from .synthesis import EchoSynthesizer, Paths
+from .validation import check_positive
+
+#: The paper's tones [Hz].
+PAPER_TONES = (32e3, 36e3, 40e3, 44e3, 48e3)
+#: Code slot T [s].
+PAPER_SLOT = 0.5e-3
+#: Listening time after a cycle's last code [s] (farthest echo of 5 m, rounded up as the paper).
+PAPER_LISTEN = 30e-3
+
+
+@dataclass(frozen=True)
+class Code:
+    """An OFDM code: tone ``first`` [Hz] for the first half of a ``slot`` [s], ``second`` after."""
+
+    first: float
+    second: float
+    slot: float = PAPER_SLOT
+
+    @property
+    def duration(self) -> float:
+        return self.slot
+
+    @property
+    def frequency(self) -> float:
+        """Centre frequency [Hz] (wavenumber of the patch integrals)."""
+        return 0.5 * (self.first + self.second)
+
+    def waveform(self, t) -> np.ndarray:
+        """The real drive at times t [s]."""
+        t = np.asarray(t, dtype=float)
+        half = self.slot / 2
+        first = (t >= 0) & (t < half)
+        second = (t >= half) & (t <= self.slot)
+        return np.where(first, np.sin(2 * np.pi * self.first * t), 0.0) \
+            + np.where(second, np.sin(2 * np.pi * self.second * (t - half)), 0.0)
+
+    def spectrum(self, frequency) -> np.ndarray:
+        return spectrum_of(self, frequency)
+
+
+def check_orthogonal(tones, slot: float) -> None:
+    """Raise ValueError naming the first pair of tones not orthogonal over a half slot by (9)."""
+    half = slot / 2
+    tones = np.asarray(tones, dtype=float)
+    for i in range(len(tones)):
+        for j in range(i + 1, len(tones)):
+            f1, f2 = sorted((tones[i], tones[j]))
+            df = f2 - f1
+            for name, value in (("Delta f T", df * half), ("(2 f1 + Delta f) T", (2 * f1 + df) * half)):
+                if abs(value - round(value)) > 1e-9 or round(value) == 0:
+                    raise ValueError(f"tones {f1:.0f} Hz and {f2:.0f} Hz are not orthogonal over "
+                                     f"T = {half * 1e3:.3f} ms: {name} = {value:.4f} is not a "
+                                     "non-zero integer (equation (9))")
+
+
+def code_set(tones=PAPER_TONES, slot: float = PAPER_SLOT) -> list[Code]:
+    """All ordered pairs of the tones as codes (25 for five tones), after checking (9)."""
+    check_positive("code slot [s]", slot)
+    check_orthogonal(tones, slot)
+    return [Code(float(a), float(b), slot) for a in tones for b in tones]
+
+
+def code_correlation(codes, sample_rate: float = 1e6) -> np.ndarray:
+    """Normalised zero-lag correlation matrix (C, C) of the code waveforms."""
+    t = np.arange(0.0, codes[0].slot, 1.0 / sample_rate)
+    w = np.array([c.waveform(t) for c in codes])
+    w /= np.linalg.norm(w, axis=1, keepdims=True)
+    return w @ w.T
+
+
+@dataclass(frozen=True)
+class Schedule:
+    """When and where every beam of a frame is sent.
+
+    Attributes:
+        directions: (B, 3) beam directions, sensor frame.
+        code_index: (B,) index into ``codes``.
+        transmit_time: (B,) firing time from the start of the frame [s].
+        cycle: (B,) cycle number.
+        cycle_start: (n_cycles,) start of each cycle [s].
+        frame_duration: time until the last cycle has finished listening [s].
+        listen: listening time after each cycle's last code [s].
+        codes: the code set.
+    """
+
+    directions: np.ndarray
+    code_index: np.ndarray
+    transmit_time: np.ndarray
+    cycle: np.ndarray
+    cycle_start: np.ndarray
+    frame_duration: float
+    listen: float
+    codes: tuple
+
+    @classmethod
+    def build(cls, directions, codes, listen: float = PAPER_LISTEN) -> "Schedule":
+        """Beams in the given order, ``len(codes)`` per cycle, one code per slot."""
+        dirs = np.asarray(directions, dtype=float).reshape(-1, 3)
+        check_positive("listening time [s]", listen)
+        n_codes = len(codes)
+        slot = codes[0].slot
+        b = np.arange(len(dirs))
+        cycle, position = b // n_codes, b % n_codes
+        n_cycles = int(cycle.max()) + 1
+        cycle_period = n_codes * slot + listen
+        cycle_start = np.arange(n_cycles) * cycle_period
+        last = len(dirs) - (n_cycles - 1) * n_codes
+        frame = float(cycle_start[-1] + last * slot + listen)
+        return cls(dirs, position, cycle_start[cycle] + position * slot, cycle, cycle_start, frame,
+                   float(listen), tuple(codes))
+
+
+@dataclass(frozen=True)
+class Frame:
+    """Decoded frame.
+
+    Attributes:
+        schedule: the schedule it followed.
+        detected: (B,) bool.
+        depth: (B,) [m], NaN where nothing was detected.
+        amplitude: (B,) strongest decoded envelope value [Pa].
+        points_sensor: (B, 3) reflectors in the sensor frame of each beam's pose (NaN if none).
+        world_from_sensor: (B, 4, 4) sensor pose when each beam was fired.
+        crosstalk_db: (B,) level that the other codes of the cycle leave in this code's decoded
+            envelope, relative to this beam's own echo [dB] (NaN where nothing was detected).
+        start_time: frame start on the trajectory's clock [s].
+    """
+
+    schedule: Schedule
+    detected: np.ndarray
+    depth: np.ndarray
+    amplitude: np.ndarray
+    points_sensor: np.ndarray
+    world_from_sensor: np.ndarray
+    crosstalk_db: np.ndarray
+    start_time: float
+
+
+class OfdmSonar:
+    """Simulates and decodes OFDM frames with a :class:`~mitsonar.sonar.Sonar`'s scene and config.
+
+    Args:
+        sonar: the scene and sensor configuration (its tracer, processor settings and noise).
+        codes: code set (default: the paper's 25).
+        listen: listening time after each cycle [s].
+    """
+
+    def __init__(self, sonar: Sonar, codes=None, listen: float = PAPER_LISTEN):
+        self.sonar = sonar
+        self.codes = tuple(codes or code_set())
+        self.listen = listen
+        cfg = sonar.config
+        duration = PRE_ROLL + len(self.codes) * self.codes[0].slot + listen
+        self.synth = EchoSynthesizer(cfg.pulse, cfg.transducer, cfg.sample_rate, -PRE_ROLL, duration,
+                                     cfg.transducer_response, waveforms=self.codes)
+        from .processing import EchoProcessor
+
+        self.processor = EchoProcessor(cfg.geometry, self.synth, cfg.medium.speed_of_sound,
+                                       cfg.detection, cfg.noise_rms)
+
+    def schedule(self, directions) -> Schedule:
+        """Schedule of beams towards ``directions`` (B, 3), checked against the field of view."""
+        self.sonar.config.geometry.check_in_fov(directions)
+        return Schedule.build(directions, self.codes, self.listen)
+
+    def frame(self, schedule: Schedule, pose_at, start_time: float = 0.0, seed: int = 0) -> Frame:
+        """Simulate and decode one frame.
+
+        Args:
+            schedule: beams, codes and firing times.
+            pose_at: function time [s] -> world-from-sensor :class:`Pose` (the robot's motion).
+            start_time: frame start on ``pose_at``'s clock [s].
+            seed: seeds noise and diffuse phases (same seed, same frame).
+        """
+        n = len(schedule.directions)
+        detected = np.zeros(n, bool)
+        depth = np.full(n, np.nan)
+        amplitude = np.zeros(n)
+        points = np.full((n, 3), np.nan)
+        poses = np.zeros((n, 4, 4))
+        crosstalk = np.full(n, np.nan)
+        for c in range(len(schedule.cycle_start)):  # cycles follow each other in time
+            beams = np.nonzero(schedule.cycle == c)[0]
+            result = self._cycle(schedule, beams, pose_at, start_time, seed)
+            for key, target in (("detected", detected), ("depth", depth), ("amplitude", amplitude),
+                                ("crosstalk", crosstalk)):
+                target[beams] = result[key]
+            points[beams] = result["points"]
+            poses[beams] = result["poses"]
+        return Frame(schedule, detected, depth, amplitude, points, poses, crosstalk, start_time)
+
+    def _cycle(self, schedule: Schedule, beams, pose_at, start_time: float, seed: int) -> dict:
+        sonar = self.sonar
+        n_rx = sonar.config.geometry.rx.count
+        t0 = schedule.cycle_start[schedule.cycle[beams[0]]]
+        offsets = schedule.transmit_time[beams] - t0  # firing times within the cycle
+        codes = [schedule.codes[k] for k in schedule.code_index[beams]]
+        poses, echo_groups, direct_groups = [], [], []
+        for b, offset, code in zip(beams, offsets, codes):  # beams of a cycle, each vectorised
+            pose = pose_at(start_time + schedule.transmit_time[b])
+            poses.append(pose.matrix())
+            u = schedule.directions[b]
+            paths = sonar.tracer.trace(pose, u, seed=_seed(seed, b)).paths
+            echo_groups.append((_shifted(paths, offset), code))
+            direct_groups.append((_shifted(sonar.tracer.direct_paths(u), offset), code))
+        spectra = [self.synth.group_spectrum(p, w, n_rx) for p, w in echo_groups + direct_groups]
+        k = len(beams)
+        total = np.sum(spectra, axis=0)
+        rec = self.synth.recording(self.synth.to_analytic(total), sonar.config.noise_rms,
+                                   seed=_seed(seed, int(beams[0]), _NOISE_STREAM))
+        direct = self.synth.recording(self.synth.to_analytic(np.sum(spectra[k:], axis=0)))
+        out = {key: [] for key in ("detected", "depth", "amplitude", "points", "crosstalk")}
+        max_path = 2.0 * sonar.config.max_range  # the listening window of every code
+        for i, (b, offset, code) in enumerate(zip(beams, offsets, codes)):
+            u = schedule.directions[b]
+            blank = self.processor.envelope(direct, u, code)
+            env, det = self.processor.process(rec, u, blank, code, transmit_time=offset,
+                                              max_path_length=max_path)
+            out["detected"].append(det.detected)
+            out["depth"].append(det.depth)
+            out["amplitude"].append(det.amplitude)
+            out["points"].append(det.point)
+            if det.detected:
+                others = self.synth.recording(self.synth.to_analytic(total - spectra[i]))
+                leak = self.processor.envelope(others, u, code)
+                window = np.abs(rec.times - offset - det.time_of_arrival) < 2 * code.slot
+                out["crosstalk"].append(20 * np.log10(max(leak[window].max(), 1e-30) / det.amplitude))
+            else:
+                out["crosstalk"].append(np.nan)
+        out["poses"] = np.array(poses)
+        return {key: np.array(value) for key, value in out.items()}
+
+
+def _shifted(paths: Paths, offset: float) -> Paths:
+    return Paths(paths.gain, paths.delay + offset, paths.channel)
+
+
+_NOISE_STREAM = 1_000_003  # separates the noise seeds from the per-beam trace seeds
+
+
+def _seed(seed: int, *parts) -> int:
+    return int(np.random.SeedSequence([seed, *map(int, parts)]).generate_state(1)[0])
+
+
+def pose_along(trajectory, mount=None):
+    """``pose_at`` function of a :class:`~mitsonar.trajectory.Trajectory`: time -> sensor pose."""
+    mount = mount or Pose.sensor_mount()
+
+    def pose_at(t: float) -> Pose:
+        x, y, yaw = trajectory.poses_at([t])[0]
+        return Pose.planar(x, y, yaw) @ mount
+
+    return pose_at
