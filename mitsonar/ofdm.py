@@ -8,9 +8,11 @@ differ in both halves are orthogonal, codes that share one half correlate at 1/2
 their echoes are separated by time (each code fires in its own slot) and by direction
 (beamforming), and what leaks between them is measured (``crosstalk_db``).
 
-Schedule. Beams are taken in order and fired one code per slot: a cycle sends up to 25 codes
-back to back (12.5 ms) and then listens for the farthest echo (30 ms for 5 m); the next cycle
-starts after that. A 60 x 40 deg field of view at 5 deg has 13 x 9 = 117 beams: 4 full cycles of
+Schedule. Beams are fired one code per slot: a cycle sends up to 25 codes back to back
+(12.5 ms) and then listens for the farthest echo (30 ms for 5 m); the next cycle starts after
+that. Echoes of codes fired one or two slots apart overlap most at the receiver, so beams fired
+that close are spread far apart in angle (a stride permutation of the grid) and consecutive codes
+share no tone. A 60 x 40 deg field of view at 5 deg has 13 x 9 = 117 beams: 4 full cycles of
 42.5 ms and one of 17 codes (8.5 + 30 ms), 208.5 ms per frame (4.8 Hz). The schedule is data
 (direction, code, transmit time and cycle of every beam), so other grids and code sets work.
 
@@ -93,6 +95,56 @@ def code_set(tones=PAPER_TONES, slot: float = PAPER_SLOT) -> list[Code]:
     return [Code(float(a), float(b), slot) for a in tones for b in tones]
 
 
+def low_crosstalk_order(codes, max_steps: int = 5_000_000) -> list:
+    """The codes reordered so that consecutive codes share no tone (their echoes overlap most),
+    by a deterministic backtracking search; the given order if none is found in ``max_steps``."""
+    codes = list(codes)
+    tones = [{c.first, c.second} for c in codes]
+    order: list[int] = []
+    used = [False] * len(codes)
+    steps = 0
+
+    def extend() -> bool:
+        nonlocal steps
+        if len(order) == len(codes):
+            return True
+        for k in range(len(codes)):
+            steps += 1
+            if steps > max_steps:
+                return False
+            if not used[k] and (not order or not tones[k] & tones[order[-1]]):
+                used[k] = True
+                order.append(k)
+                if extend():
+                    return True
+                used[k] = False
+                order.pop()
+        return False
+
+    return [codes[k] for k in order] if extend() else codes
+
+
+def interleaved_order(directions) -> np.ndarray:
+    """Firing order of beams (B, 3): a stride permutation that keeps beams fired within two slots
+    of each other as far apart in angle as possible, so what leaks between their codes arrives
+    from outside each other's main lobes."""
+    u = np.asarray(directions, dtype=float)
+    n = len(u)
+    if n < 3:
+        return np.arange(n)
+    best, best_order = -1.0, np.arange(n)
+    for stride in range(1, n):
+        if np.gcd(stride, n) != 1:
+            continue
+        order = (np.arange(n) * stride) % n
+        d = u[order]
+        closest = min(np.min(np.sum(d[k:] * d[:-k], axis=1)) for k in (1, 2))
+        separation = np.arccos(np.clip(closest, -1, 1))
+        if separation > best + 1e-12:
+            best, best_order = separation, order
+    return best_order
+
+
 def code_correlation(codes, sample_rate: float = 1e6) -> np.ndarray:
     """Normalised zero-lag correlation matrix (C, C) of the code waveforms."""
     t = np.arange(0.0, codes[0].slot, 1.0 / sample_rate)
@@ -126,14 +178,22 @@ class Schedule:
     codes: tuple
 
     @classmethod
-    def build(cls, directions, codes, listen: float = PAPER_LISTEN) -> "Schedule":
-        """Beams in the given order, ``len(codes)`` per cycle, one code per slot."""
+    def build(cls, directions, codes, listen: float = PAPER_LISTEN, interleave: bool = True) -> "Schedule":
+        """Schedule beams towards ``directions`` (B, 3), ``len(codes)`` per cycle, one per slot.
+
+        With ``interleave`` the firing order is :func:`interleaved_order` and the codes follow
+        :func:`low_crosstalk_order`; otherwise beams and codes go in the given order. Arrays
+        are indexed by the beam's position in ``directions`` either way.
+        """
         dirs = np.asarray(directions, dtype=float).reshape(-1, 3)
         check_positive("listening time [s]", listen)
+        codes = low_crosstalk_order(codes) if interleave else list(codes)
         n_codes = len(codes)
         slot = codes[0].slot
-        b = np.arange(len(dirs))
-        cycle, position = b // n_codes, b % n_codes
+        fire = interleaved_order(dirs) if interleave else np.arange(len(dirs))
+        rank = np.empty(len(dirs), dtype=int)
+        rank[fire] = np.arange(len(dirs))  # firing position of each beam
+        cycle, position = rank // n_codes, rank % n_codes
         n_cycles = int(cycle.max()) + 1
         cycle_period = n_codes * slot + listen
         cycle_start = np.arange(n_cycles) * cycle_period
