@@ -195,6 +195,7 @@ class Sonar:
                                            cfg.record_duration, cfg.transducer_response)
         self.processor = EchoProcessor(cfg.geometry, self.synthesizer, cfg.medium.speed_of_sound,
                                        cfg.detection, cfg.noise_rms)
+        self._direct_envelopes: dict = {}
 
     def fov_grid(self, step: float) -> np.ndarray:
         """Beam directions on a ``step`` [rad] grid over the field of view (see
@@ -219,7 +220,11 @@ class Sonar:
         direct = self.tracer.direct_paths(u)
         recording = self.synthesizer.synthesize(Paths.concatenate([trace.paths, direct]), n_rx,
                                                 self.config.noise_rms, seed=[seed, 1])
-        direct_envelope = self.processor.envelope(self.synthesizer.synthesize(direct, n_rx), u)
+        key = tuple(np.round(u, 12))
+        if key not in self._direct_envelopes:  # depends on the direction only: computed once
+            self._direct_envelopes[key] = self.processor.envelope(
+                self.synthesizer.synthesize(direct, n_rx), u)
+        direct_envelope = self._direct_envelopes[key]
         envelope, detection = self.processor.process(recording, u, direct_envelope)
         return Ping(u, trace, recording, envelope, direct_envelope, detection)
 
