@@ -140,14 +140,6 @@ def main_lobe_widths(angles, patterns, level: float = HALF_POWER) -> np.ndarray:
     width = crossing(r0, r0 - 1) - crossing(l0, l0 + 1)
     return np.where(ok, width, np.nan)[..., 0]
 
-
-def horizontal_cut(steer_horizontal: float, half_span: float, count: int,
-                   vertical: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
-    """Horizontal angles [rad] (count,) around ``steer_horizontal`` and their directions (count, 3)."""
-    h = steer_horizontal + np.linspace(-half_span, half_span, count)
-    return h, direction_from_fov_angles(h, np.full_like(h, vertical))
-
-
 def fov_grid(fov_horizontal: float, fov_vertical: float, step: float):
     """Regular grid of field-of-view angles including the edges.
 

@@ -214,3 +214,19 @@ def test_second_bounce_reproduces_the_dihedral_image_source(scene_file):
     assert abs(20 * np.log10(double.amplitude / expected)) <= 1.0  # measured -0.04 dB
     assert abs(double.depth - d) <= 5e-3
     assert single.amplitude < expected / 10  # single scattering misses the corner return
+
+
+def test_phase_errors_cost_the_coherent_array_gain(scene_file):
+    """Uncalibrated elements (random phase phi_i of (1)) lower a broadside wall echo by the
+    magnitude of the mean phasor of each array, |mean exp(j phi_tx)| |mean exp(j phi_rx)|."""
+    path = scene_file("w", material_xml("w", **RIGID), rectangle_xml("w", (0, 0, 3.0), size=(30, 30)))
+    calibrated = mitsonar.Sonar(path, QUIET)
+    geometry = calibrated.config.geometry.with_random_phase_errors(std=0.8, seed=4)
+    from dataclasses import replace
+
+    errors = mitsonar.Sonar(calibrated.scene, replace(QUIET, geometry=geometry))
+    expected = abs(np.exp(1j * geometry.tx_phase_offsets).mean()) \
+        * abs(np.exp(1j * geometry.rx_phase_offsets).mean())
+    ratio = errors.ping(IDENTITY, BROADSIDE).detection.amplitude \
+        / calibrated.ping(IDENTITY, BROADSIDE).detection.amplitude
+    assert abs(20 * np.log10(ratio / expected)) <= 0.5, (ratio, expected)

@@ -71,3 +71,13 @@ def test_25_simultaneous_targets_are_decoded_in_one_cycle(scene_file):
     assert len(frame.schedule.cycle_start) == 1 and frame.detected.all()
     assert np.max(np.abs(frame.depth - (ranges - radii))) <= 0.01  # measured 4.1 mm
     assert np.max(frame.crosstalk_db) < 0.0  # measured -2.3 dB (worst code)
+
+
+def test_pose_along_a_trajectory_moves_the_sensor_head():
+    from mitsonar.ofdm import pose_along
+
+    traj = mitsonar.Trajectory(np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]]), speed=0.5)
+    pose_at = pose_along(traj)
+    np.testing.assert_allclose(pose_at(1.0).matrix(), mitsonar.Pose.sensor_on_robot(0.5, 0, 0).matrix())
+    # During a 208.5 ms frame at 0.5 m/s the head moves 10.4 cm.
+    assert np.linalg.norm(pose_at(0.2085).translation - pose_at(0.0).translation) == pytest.approx(0.10425)
