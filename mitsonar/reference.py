@@ -1,4 +1,4 @@
-"""Exact image-source echoes for validation: infinite planes and other mirror images.
+"""References for validation: exact image-source echoes, and the direct summation of (1)(3).
 
 For a rigid infinite plane, Kirchhoff's integral equals the field of the transmit array's mirror
 image, so the specular echo is known exactly: one path per (transmit, receive) element pair from
@@ -44,3 +44,18 @@ def image_paths(config, direction, tx_images, reflection: complex = 1.0) -> Path
     c = medium.speed_of_sound
     delay = g.steering_delays(np.asarray(direction, dtype=float), c)[:, None] + length / c
     return Paths(gain.ravel(), delay.ravel(), np.tile(np.arange(g.rx.count), g.tx.count))
+
+
+def direct_summation(paths: Paths, pulse, n_channels: int, times) -> np.ndarray:
+    """Plain time-domain evaluation of (1)(3): sum_p Re{a_p e(t - tau_p) e^{j(w (t - tau_p) - pi/2)}},
+    the accuracy oracle of the fast synthesis (``pulse`` needs ``analytic(t)``).
+
+    Loops over chunks of samples only to bound memory; (channels, len(times)).
+    """
+    out = np.zeros((n_channels, len(times)))
+    for start in range(0, len(times), 256):
+        t = np.asarray(times[start:start + 256])
+        wave = pulse.analytic(t[None, :] - paths.delay[:, None])  # (M, T)
+        contrib = (paths.gain[:, None] * wave).real
+        np.add.at(out[:, start:start + 256], paths.channel, contrib)
+    return out

@@ -7,7 +7,7 @@ import mitsonar
 from mitsonar.processing import bistatic_depth
 from mitsonar.synthesis import Paths
 from conftest import BROADSIDE, IDENTITY, material_xml, rectangle_xml
-from reference import direct_summation
+from mitsonar.reference import direct_summation
 
 
 @pytest.fixture(scope="module")

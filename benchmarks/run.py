@@ -1,0 +1,159 @@
+"""Speed of mitsonar against the real sensor and against plain baselines, side by side in one run.
+
+    .venv/bin/python benchmarks/run.py [--scene scenes/room_glass/scene.xml] [--quick]
+
+Prints one line per figure (value, baseline, ratio) and exits non-zero if any figure is not
+finite. Timings are wall-clock on this machine, measured in this one run; compare ratios, not
+absolute numbers, across machines.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+import mitsonar
+from mitsonar.ofdm import OfdmSonar
+from mitsonar.reference import direct_summation
+
+REAL_PING_S = 0.030  # one ping listens ~30 ms for 5 m (the paper)
+REAL_FRAME_S = 0.2085  # one 13 x 9 OFDM frame (the paper)
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _timed(fn, repeat: int = 1):
+    fn()  # warm-up: kernels compiled or loaded from Dr.Jit's cache
+    t0 = time.perf_counter()
+    for _ in range(repeat):
+        out = fn()
+    return (time.perf_counter() - t0) / repeat, out
+
+
+def tracer_vs_ray_intersect(sonar, pose, direction):
+    """Acoustic trace of one beam vs a bare scene.ray_intersect of the same primary rays."""
+    tracer = sonar.tracer
+    t_trace, result = _timed(lambda: tracer.trace(pose, direction), repeat=5)
+    mi = tracer.mi
+    n = result.ray_count
+    d = np.random.default_rng(0).normal(size=(n, 3))
+    d[:, 2] = np.abs(d[:, 2]) + 2
+    d = pose.transform_vectors(d / np.linalg.norm(d, axis=1, keepdims=True))
+    o = pose.translation
+
+    def bare():
+        import drjit as dr
+
+        ray = mi.Ray3f(mi.Point3f(*[mi.Float(np.full(n, o[k])) for k in range(3)]),
+                       mi.Vector3f(*[mi.Float(d[:, k]) for k in range(3)]))
+        si = sonar.scene.scene.ray_intersect(ray)
+        dr.eval(si.t)
+        return np.asarray(si.t)
+
+    t_bare, _ = _timed(bare, repeat=5)
+    return n / t_trace, n / t_bare
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--scene", default=str(ROOT / "scenes" / "room_glass" / "scene.xml"))
+    parser.add_argument("--quick", action="store_true", help="fewer beams (a smoke run)")
+    parser.add_argument("--memory-probe", choices=["ping", "frame", "sample"], help=argparse.SUPPRESS)
+    args = parser.parse_args(argv)
+    if args.memory_probe:
+        return _memory_probe(args.scene, args.memory_probe)
+    sonar = mitsonar.Sonar(args.scene)
+    pose = mitsonar.Pose.sensor_on_robot(0.0, 0.0, 0.0)
+    step = np.radians(20.0 if args.quick else 10.0)
+    dirs = sonar.fov_grid(step)
+    lines = []
+
+    def report(name, value, unit, baseline, baseline_name, better="higher"):
+        ratio = value / baseline
+        lines.append((name, value, ratio))
+        print(f"{name:<34s} {value:12.4g} {unit:<10s} vs {baseline_name} {baseline:.4g}: "
+              f"ratio {ratio:.3g} ({better} is better)")
+
+    ours, bare = tracer_vs_ray_intersect(sonar, pose, dirs[len(dirs) // 2])
+    report("acoustic trace rays/s", ours, "rays/s", bare, "bare ray_intersect")
+
+    t_ping, _ = _timed(lambda: [sonar.ping(pose, u) for u in dirs])
+    report("single-beam pings/s", len(dirs) / t_ping, "pings/s", 1 / REAL_PING_S, "real sensor")
+
+    ofdm = OfdmSonar(sonar)
+    schedule = ofdm.schedule(sonar.fov_grid(np.radians(10.0 if args.quick else 5.0)))
+    t0 = time.perf_counter()
+    ofdm.frame(schedule, lambda t: pose)
+    t_frame = time.perf_counter() - t0
+    report(f"OFDM frames/s ({len(schedule.directions)} beams)", 1 / t_frame, "frames/s",
+           1 / REAL_FRAME_S * 117 / len(schedule.directions), "real sensor (per beam count)")
+
+    # Fast synthesis vs the direct summation of (1)(3) on the same paths (paper model, ideal
+    # transducers, 400 kHz: both agree to 1e-4 of the peak).
+    cfg = mitsonar.SonarConfig(trace=mitsonar.TraceSettings(model="paper"), transducer_response=False,
+                               sample_rate=400e3, noise_rms=0.0, max_range=3.0)
+    paper = mitsonar.Sonar(sonar.scene, cfg)
+    u = dirs[len(dirs) // 2]
+    paths = paper.tracer.trace(pose, u).paths
+    t_fast, fast = _timed(lambda: paper.synthesizer.synthesize(paths, 25), repeat=3)
+    t0 = time.perf_counter()
+    slow = direct_summation(paths, cfg.pulse, 25, fast.times)
+    t_slow = time.perf_counter() - t0
+    error = np.abs(fast.samples - slow).max() / np.abs(slow).max()
+    depth_fast = paper.processor.process(fast, u)[1].depth
+    from mitsonar.synthesis import Recording
+
+    depth_slow = paper.processor.process(Recording(slow, fast.sample_rate, fast.start_time), u)[1].depth
+    report("fast synthesis speed-up", t_slow / t_fast, "x", 1.0, "direct (1)(3) summation")
+    print(f"{'  same paths: max difference':<34s} {error:12.3g} of peak; depth difference "
+          f"{abs(depth_fast - depth_slow) * 1000:.4f} mm")
+    lines.append(("synthesis error", error, error))
+
+    for probe in ("ping", "frame", "sample"):
+        peak = _probe_peak(args.scene, probe)
+        print(f"{'peak memory, one ' + probe:<34s} {peak / 2**20:12.1f} MiB (fresh process)")
+        lines.append((probe, peak, peak))
+    bad = [name for name, value, ratio in lines if not (np.isfinite(value) and np.isfinite(ratio))]
+    if bad:
+        print(f"non-finite output: {', '.join(bad)}", file=sys.stderr)
+        return 1
+    return 0
+
+
+def _probe_peak(scene: str, probe: str) -> float:
+    """Peak resident memory [bytes] of a fresh process doing one ping, frame or dataset sample."""
+    out = subprocess.run([sys.executable, __file__, "--scene", scene, "--memory-probe", probe],
+                         capture_output=True, text=True, check=True)
+    return float(json.loads(out.stdout.strip().splitlines()[-1])["peak_bytes"])
+
+
+def _memory_probe(scene: str, what: str) -> int:
+    pose = mitsonar.Pose.sensor_on_robot(0.0, 0.0, 0.0)
+    sonar = mitsonar.Sonar(scene)
+    if what == "ping":
+        sonar.ping(pose, np.array([0.0, 0.0, 1.0]))
+    elif what == "frame":
+        ofdm = OfdmSonar(sonar)
+        ofdm.frame(ofdm.schedule(sonar.fov_grid(np.radians(10.0))), lambda t: pose)
+    else:
+        import tempfile
+
+        from mitsonar.dataset import DatasetSpec, render_dataset
+
+        with tempfile.TemporaryDirectory() as tmp:
+            render_dataset(DatasetSpec(scene, max_samples=1), Path(tmp) / "ds")
+    # VmHWM (peak resident set of this process image); ru_maxrss would carry the parent's peak
+    # across fork + exec on Linux.
+    status = Path("/proc/self/status").read_text()
+    hwm_kib = next(int(line.split()[1]) for line in status.splitlines() if line.startswith("VmHWM:"))
+    print(json.dumps({"peak_bytes": hwm_kib * 1024}))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
