@@ -58,7 +58,7 @@ class DetectionSettings:
     detection_floor: float = 1e-3
     blanking_margin: float = 2.0
     min_range: float = 0.2
-    ghost_margin: float = 2.0
+    ghost_margin: float = 1.2
     ghost_exclusion: float = np.radians(6.0)
     ghost_grid_step: float = np.radians(2.0)
     ghost_half_span: float = np.radians(50.0)
