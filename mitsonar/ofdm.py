@@ -11,8 +11,9 @@ their echoes are separated by time (each code fires in its own slot) and by dire
 Schedule. Beams are fired one code per slot: a cycle sends up to 25 codes back to back
 (12.5 ms) and then listens for the farthest echo (30 ms for 5 m); the next cycle starts after
 that. Echoes of codes fired one or two slots apart overlap most at the receiver, so beams fired
-that close are spread far apart in angle (a stride permutation of the grid) and consecutive codes
-share no tone. A 60 x 40 deg field of view at 5 deg has 13 x 9 = 117 beams: 4 full cycles of
+that close are spread far apart in angle (a stride permutation of the grid); within a cycle,
+beams fired in consecutive slots and beams closer than 8 deg (inside each other's main-lobe
+exclusion) get codes that share no tone. A 60 x 40 deg field of view at 5 deg has 13 x 9 = 117 beams: 4 full cycles of
 42.5 ms and one of 17 codes (8.5 + 30 ms), 208.5 ms per frame (4.8 Hz). The schedule is data
 (direction, code, transmit time and cycle of every beam), so other grids and code sets work.
 
@@ -95,33 +96,39 @@ def code_set(tones=PAPER_TONES, slot: float = PAPER_SLOT) -> list[Code]:
     return [Code(float(a), float(b), slot) for a in tones for b in tones]
 
 
-def low_crosstalk_order(codes, max_steps: int = 5_000_000) -> list:
-    """The codes reordered so that consecutive codes share no tone (their echoes overlap most),
-    by a deterministic backtracking search; the given order if none is found in ``max_steps``."""
-    codes = list(codes)
+def assign_codes(directions, codes, neighbour_angle: float = np.radians(8.0)) -> np.ndarray:
+    """Code index (n,) for beams (n, 3) listed in firing order, each code used once, with as few
+    as possible tone-sharing codes between beams fired in consecutive slots or closer than
+    ``neighbour_angle`` [rad]: deterministic steepest-descent over code swaps."""
+    u = np.asarray(directions, dtype=float)
+    n = len(u)
+    if n > len(codes):
+        raise ValueError(f"{n} beams in a cycle but only {len(codes)} codes")
     tones = [{c.first, c.second} for c in codes]
-    order: list[int] = []
-    used = [False] * len(codes)
-    steps = 0
-
-    def extend() -> bool:
-        nonlocal steps
-        if len(order) == len(codes):
-            return True
-        for k in range(len(codes)):
-            steps += 1
-            if steps > max_steps:
-                return False
-            if not used[k] and (not order or not tones[k] & tones[order[-1]]):
-                used[k] = True
-                order.append(k)
-                if extend():
-                    return True
-                used[k] = False
-                order.pop()
-        return False
-
-    return [codes[k] for k in order] if extend() else codes
+    clash = np.array([[bool(a & b) for b in tones] for a in tones], dtype=int)
+    linked = (u @ u.T) > np.cos(neighbour_angle)
+    idx = np.arange(n - 1)
+    linked[idx, idx + 1] = linked[idx + 1, idx] = True  # consecutive slots
+    np.fill_diagonal(linked, False)
+    assign = np.arange(n)
+    spare = np.arange(n, len(codes))  # unused codes can be swapped in too
+    pool = np.concatenate([assign, spare])
+    while True:  # one best swap per round; the conflict count falls every round
+        current = pool[:n]
+        cost = (clash[np.ix_(current, current)] * linked).sum() / 2
+        best, best_pair = cost, None
+        for a in range(n):
+            for b in range(a + 1, len(pool)):
+                trial = pool.copy()
+                trial[a], trial[b] = trial[b], trial[a]
+                t = trial[:n]
+                c = (clash[np.ix_(t, t)] * linked).sum() / 2
+                if c < best:
+                    best, best_pair = c, (a, b)
+        if best_pair is None:
+            return pool[:n]
+        a, b = best_pair
+        pool[a], pool[b] = pool[b], pool[a]
 
 
 def interleaved_order(directions) -> np.ndarray:
@@ -181,25 +188,30 @@ class Schedule:
     def build(cls, directions, codes, listen: float = PAPER_LISTEN, interleave: bool = True) -> "Schedule":
         """Schedule beams towards ``directions`` (B, 3), ``len(codes)`` per cycle, one per slot.
 
-        With ``interleave`` the firing order is :func:`interleaved_order` and the codes follow
-        :func:`low_crosstalk_order`; otherwise beams and codes go in the given order. Arrays
+        With ``interleave`` the firing order is :func:`interleaved_order` and codes are given by
+        :func:`assign_codes` per cycle; otherwise beams and codes go in the given order. Arrays
         are indexed by the beam's position in ``directions`` either way.
         """
         dirs = np.asarray(directions, dtype=float).reshape(-1, 3)
         check_positive("listening time [s]", listen)
-        codes = low_crosstalk_order(codes) if interleave else list(codes)
+        codes = list(codes)
         n_codes = len(codes)
         slot = codes[0].slot
         fire = interleaved_order(dirs) if interleave else np.arange(len(dirs))
         rank = np.empty(len(dirs), dtype=int)
         rank[fire] = np.arange(len(dirs))  # firing position of each beam
         cycle, position = rank // n_codes, rank % n_codes
+        code_index = position.copy()
+        if interleave:  # per cycle: neighbours in time or in angle get tone-disjoint codes
+            for c in range(int(cycle.max()) + 1):
+                members = fire[c * n_codes:(c + 1) * n_codes]  # this cycle's beams, firing order
+                code_index[members] = assign_codes(dirs[members], codes)
         n_cycles = int(cycle.max()) + 1
         cycle_period = n_codes * slot + listen
         cycle_start = np.arange(n_cycles) * cycle_period
         last = len(dirs) - (n_cycles - 1) * n_codes
         frame = float(cycle_start[-1] + last * slot + listen)
-        return cls(dirs, position, cycle_start[cycle] + position * slot, cycle, cycle_start, frame,
+        return cls(dirs, code_index, cycle_start[cycle] + position * slot, cycle, cycle_start, frame,
                    float(listen), tuple(codes))
 
 
