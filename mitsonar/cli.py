@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 #: Modules that contribute sub-commands (besides ``scan`` below).
-COMMAND_MODULES: list[str] = ["mitsonar.array_design", "mitsonar.dataset"]
+COMMAND_MODULES: list[str] = ["mitsonar.array_design", "mitsonar.dataset", "mitsonar.mapping"]
 
 
 def parse_pose(text: str) -> tuple[float, float, float]:
