@@ -86,14 +86,9 @@ def _run_scan(args) -> int:
         scan = sonar.scan(pose, dirs, seed=args.seed, progress=lambda _: bar.update())
     scan_time = time.perf_counter() - t0 - load_time
     out = args.out
-    h, v = fov_angles(scan.directions)
     write_ply(out / "points.ply", scan.points_world, scalars={"amplitude": scan.amplitude[scan.detected]})
-    write_npz(out / "echoes.npz", echoes=scan.echoes, sample_rate=scan.sample_rate,
-              start_time=scan.start_time, directions=scan.directions,
-              horizontal_deg=np.degrees(h), vertical_deg=np.degrees(v), detected=scan.detected,
-              depth=scan.depth, amplitude=scan.amplitude, points_sensor=scan.points_sensor,
-              world_from_sensor=pose.matrix(), tx_positions=config.geometry.tx_positions,
-              rx_positions=config.geometry.rx_positions)
+    write_npz(out / "echoes.npz", **scan.arrays(), world_from_sensor=pose.matrix(),
+              tx_positions=config.geometry.tx_positions, rx_positions=config.geometry.rx_positions)
     save_scan_figure(out / "scan.png", scan, title=f"{args.scene.name}, robot at "
                      f"({x:.2f} m, {y:.2f} m, {np.degrees(yaw):.0f} deg)")
     depth = scan.depth[scan.detected]

@@ -154,15 +154,8 @@ class _Renderer:
             import cv2
 
             cv2.imwrite(str(tmp / "shape_index.png"), (images.shape_index + 1).astype(np.uint16))
-            from .frames import fov_angles
-
-            h, v = fov_angles(scan.directions)
             with open(tmp / "echoes.npz", "wb") as f:
-                np.savez_compressed(f, echoes=scan.echoes, sample_rate=scan.sample_rate,
-                                    start_time=scan.start_time, directions=scan.directions,
-                                    horizontal_deg=np.degrees(h), vertical_deg=np.degrees(v),
-                                    detected=scan.detected, depth=scan.depth,
-                                    amplitude=scan.amplitude, points_sensor=scan.points_sensor)
+                np.savez_compressed(f, **scan.arrays())
             odom = sensor_poses(self.odometry[index: index + 1])[0]
             (tmp / "pose.json").write_text(json.dumps({
                 "index": index, "time_s": float(self.times[index]),
@@ -195,13 +188,18 @@ def _sha256(path: Path) -> str:
 _WORKER: dict = {}
 
 
-def _worker_render(spec_json: dict, out: str, index: int) -> int:
-    """Task run in a worker process (local pool or Dask): render one sample, reuse the loads."""
+def _renderer(spec_json: dict) -> "_Renderer":
+    """This process's renderer for a spec, loaded once and reused."""
     key = json.dumps(spec_json, sort_keys=True)
     if key not in _WORKER:
         _WORKER.clear()
         _WORKER[key] = _Renderer(DatasetSpec.from_json(spec_json))
-    _WORKER[key].render(Path(out), index)
+    return _WORKER[key]
+
+
+def _worker_render(spec_json: dict, out: str, index: int) -> int:
+    """Task run in a worker process (local pool or Dask): render one sample, reuse the loads."""
+    _renderer(spec_json).render(Path(out), index)
     return index
 
 
@@ -243,7 +241,9 @@ def render_dataset(spec: DatasetSpec, out, workers: int = 1, scheduler: str | No
     """
     out = Path(out)
     (out / "samples").mkdir(parents=True, exist_ok=True)
-    meta = _metadata(spec)
+    spec_json = spec.to_json()
+    local = scheduler is None and workers <= 1  # then this process renders: load the scene once
+    meta = _metadata(spec, _renderer(spec_json) if local else None)
     meta_path = out / "dataset.json"
     if meta_path.exists():
         old = json.loads(meta_path.read_text())
@@ -256,7 +256,6 @@ def render_dataset(spec: DatasetSpec, out, workers: int = 1, scheduler: str | No
         shutil.rmtree(stale, ignore_errors=True)
     todo = [i for i in range(meta["samples"])
             if not (out / "samples" / f"{i:06d}" / "manifest.json").exists()]
-    spec_json = spec.to_json()
     notify = progress or (lambda _: None)
     if scheduler is not None:
         from dask.distributed import Client, LocalCluster, as_completed

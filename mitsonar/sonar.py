@@ -171,6 +171,16 @@ class Scan:
     sample_rate: float
     start_time: float
 
+    def arrays(self) -> dict:
+        """The scan as named arrays (the ``echoes.npz`` format of the README)."""
+        from .frames import fov_angles
+
+        h, v = fov_angles(self.directions)
+        return dict(echoes=self.echoes, sample_rate=self.sample_rate, start_time=self.start_time,
+                    directions=self.directions, horizontal_deg=np.degrees(h),
+                    vertical_deg=np.degrees(v), detected=self.detected, depth=self.depth,
+                    amplitude=self.amplitude, points_sensor=self.points_sensor)
+
     @property
     def points_world(self) -> np.ndarray:
         """(n_detected, 3) detected reflectors in the world frame, equation (12)."""
