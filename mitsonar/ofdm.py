@@ -45,6 +45,29 @@ PAPER_LISTEN = 30e-3
 
 
 @dataclass(frozen=True)
+class Tone:
+    """A sine tone of ``frequency`` [Hz] from ``start`` [s] for ``length`` [s]: one half of a
+    :class:`Code`, on the code's clock (so both halves' matched filters peak at the same instant)."""
+
+    frequency: float
+    start: float
+    length: float
+
+    @property
+    def duration(self) -> float:
+        return self.start + self.length
+
+    def waveform(self, t) -> np.ndarray:
+        """The real drive at times t [s]."""
+        t = np.asarray(t, dtype=float)
+        on = (t >= self.start) & (t <= self.duration)
+        return np.where(on, np.sin(2 * np.pi * self.frequency * (t - self.start)), 0.0)
+
+    def spectrum(self, frequency) -> np.ndarray:
+        return spectrum_of(self, frequency)
+
+
+@dataclass(frozen=True)
 class Code:
     """An OFDM code: tone ``first`` [Hz] for the first half of a ``slot`` [s], ``second`` after."""
 
@@ -61,14 +84,18 @@ class Code:
         """Centre frequency [Hz] (wavenumber of the patch integrals)."""
         return 0.5 * (self.first + self.second)
 
+    @property
+    def parts(self) -> tuple[Tone, ...]:
+        """The tones the receiver checks an echo for separately (see processing): the two halves,
+        or one tone over the whole slot when both halves are the same tone."""
+        half = self.slot / 2
+        if self.first == self.second:
+            return (Tone(self.first, 0.0, self.slot),)
+        return Tone(self.first, 0.0, half), Tone(self.second, half, half)
+
     def waveform(self, t) -> np.ndarray:
         """The real drive at times t [s]."""
-        t = np.asarray(t, dtype=float)
-        half = self.slot / 2
-        first = (t >= 0) & (t < half)
-        second = (t >= half) & (t <= self.slot)
-        return np.where(first, np.sin(2 * np.pi * self.first * t), 0.0) \
-            + np.where(second, np.sin(2 * np.pi * self.second * (t - half)), 0.0)
+        return sum(part.waveform(t) for part in self.parts)
 
     def spectrum(self, frequency) -> np.ndarray:
         return spectrum_of(self, frequency)

@@ -17,7 +17,12 @@ Order and choices:
   accepted unless it arrives from elsewhere: receive beams formed from the same recording at that
   instant over +-50 deg show it ``ghost_margin`` stronger outside the main lobe than
   along the beam (a side-lobe echo, e.g. the specular return of a tilted wall, which would give a
-  wrong depth). No accepted candidate gives "no detection": NaN depth and ``detected = False``.
+  wrong depth). Waveforms made of parts (OFDM codes: two tones, :class:`~mitsonar.ofdm.Code`)
+  are also matched-filtered part by part: a candidate is accepted only if every part is there
+  with at least ``part_balance`` of the strongest part's envelope. Another code that shares one
+  tone leaks into one part only (the paper's codes correlate at 1/2 through a shared half), so
+  this rejects it where a threshold on the whole-code envelope could not.
+  No accepted candidate gives "no detection": NaN depth and ``detected = False``.
 * Depth by the bistatic (7): d = (l^2 - b^2) / (2 (l - b cos theta_b)), with theta_b the angle
   between the beam and the baseline vector (TX -> RX origin); point = d * u in the sensor frame.
 """
@@ -52,6 +57,8 @@ class DetectionSettings:
         ghost_half_span: the checked directions cover +-this horizontally and vertically [rad]
             (wider than the field of view: side-lobe echoes come from anywhere in front).
         max_candidates: envelope peaks examined, strongest first.
+        part_balance: for waveforms with ``parts``, the weakest part's envelope over the
+            strongest's that a candidate needs (in (0, 1]; an echo carries both equally).
     """
 
     detection_snr: float = 5.0
@@ -63,6 +70,7 @@ class DetectionSettings:
     ghost_grid_step: float = np.radians(2.0)
     ghost_half_span: float = np.radians(50.0)
     max_candidates: int = 8
+    part_balance: float = 0.3
 
     def __post_init__(self):
         for name in ("detection_snr", "detection_floor", "blanking_margin", "min_range",
@@ -70,6 +78,8 @@ class DetectionSettings:
             check_positive(f"DetectionSettings.{name}", getattr(self, name))
         if not (np.isfinite(self.ghost_margin) and self.ghost_margin >= 0):
             raise ValueError(f"DetectionSettings.ghost_margin must be >= 0, got {self.ghost_margin}")
+        if not 0 < self.part_balance <= 1:
+            raise ValueError(f"DetectionSettings.part_balance must be in (0, 1], got {self.part_balance}")
         if int(self.max_candidates) != self.max_candidates or self.max_candidates < 1:
             raise ValueError(f"DetectionSettings.max_candidates must be an integer >= 1")
 
@@ -202,13 +212,20 @@ class EchoProcessor:
         n = recording.samples.shape[1]
         u = np.asarray(direction, dtype=float)
         envelope = np.abs(self.beamform(spectra, n, u))
-        return envelope, self.detect(envelope, recording.start_time, u, direct_envelope, spectra,
-                                     waveform, transmit_time, max_path_length)
+        parts = getattr(waveform, "parts", ())
+        if parts:  # each part is a tone: its own envelope and an exact carrier for the check
+            looks = [(self.compressed_spectra(recording, p), p.frequency) for p in parts]
+            part_envelopes = [np.abs(self.beamform(x, n, u)) for x, _ in looks]
+        else:
+            looks = [(spectra, (self.synth.pulse if waveform is None else waveform).frequency)]
+            part_envelopes = ()
+        return envelope, self.detect(envelope, recording.start_time, u, direct_envelope, looks,
+                                     waveform, transmit_time, max_path_length, part_envelopes)
 
     def detect(self, envelope: np.ndarray, start_time: float, direction,
-               direct_envelope: np.ndarray | None = None, spectra: np.ndarray | None = None,
+               direct_envelope: np.ndarray | None = None, looks=(),
                waveform=None, transmit_time: float = 0.0,
-               max_path_length: float | None = None) -> Detection:
+               max_path_length: float | None = None, part_envelopes=()) -> Detection:
         """Time of arrival, depth and point from an envelope (N,) [Pa], or no detection.
 
         Args:
@@ -216,11 +233,13 @@ class EchoProcessor:
             start_time: time of its first sample [s].
             direction: (3,) beam direction in the sensor frame.
             direct_envelope: (N,) envelope of the direct path alone, for blanking (optional).
-            spectra: compressed channel spectra (N_rx, n_fft) for the side-lobe check (optional;
-                without them every candidate is taken to arrive along the beam).
-            waveform: the beam's drive waveform (noise level and carrier of the side-lobe check).
+            looks: (compressed channel spectra (N_rx, n_fft), carrier [Hz]) pairs for the side-lobe
+                check, which a candidate must pass in every look (optional; without them every
+                candidate is taken to arrive along the beam).
+            waveform: the beam's drive waveform (sets the noise level).
             transmit_time: when the beam was fired [s]; times of arrival are counted from it.
             max_path_length: ignore echoes with a longer path [m].
+            part_envelopes: envelopes (N,) of the waveform's parts, for the part-balance test.
         """
         s = self.settings
         fs = self.synth.sample_rate
@@ -246,14 +265,16 @@ class EchoProcessor:
         peaks = np.zeros(n, bool)
         peaks[1:-1] = (envelope[1:-1] >= envelope[:-2]) & (envelope[1:-1] > envelope[2:])
         candidates = np.nonzero(peaks & window & (envelope > threshold))[0]
+        if len(part_envelopes):
+            parts = np.asarray(part_envelopes)[:, candidates]
+            candidates = candidates[parts.min(axis=0) >= s.part_balance * parts.max(axis=0)]
         candidates = candidates[np.argsort(envelope[candidates])[::-1][: s.max_candidates]]
         nan3 = np.full(3, np.nan)
-        if len(candidates) and spectra is not None and s.ghost_margin > 0:
-            channels = sfft.ifft(spectra, axis=-1)[:, :n]
+        if len(candidates) and len(looks) and s.ghost_margin > 0:
             ghost_dirs = self._ghost_directions(u)
-            carrier = (self.synth.pulse if waveform is None else waveform).frequency
-            candidates = [k for k in candidates if not self._arrives_off_beam(
-                channels, start_time, k, u, ghost_dirs, carrier)][:1]
+            channels = [(sfft.ifft(x, axis=-1)[:, :n], carrier) for x, carrier in looks]
+            candidates = [k for k in candidates if not any(self._arrives_off_beam(
+                c, start_time, k, u, ghost_dirs, carrier) for c, carrier in channels)][:1]
         if len(candidates) == 0:
             return Detection(False, np.nan, np.nan, np.nan, nan3, amplitude, level)
         k = int(candidates[0])
