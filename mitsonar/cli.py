@@ -15,7 +15,8 @@ from pathlib import Path
 import numpy as np
 
 #: Modules that contribute sub-commands (besides ``scan`` below).
-COMMAND_MODULES: list[str] = ["mitsonar.array_design", "mitsonar.dataset", "mitsonar.mapping"]
+COMMAND_MODULES: list[str] = ["mitsonar.array_design", "mitsonar.dataset", "mitsonar.mapping",
+                              "mitsonar.metrics"]
 
 
 def parse_pose(text: str) -> tuple[float, float, float]:
