@@ -1,9 +1,12 @@
-"""Repeated-scanning maps (paper III-E), experimental: OFDM frames along a trajectory -> points
-coloured by the camera -> world frame by (12) with each beam's own pose -> outlier removal ->
-coloured voxel map (PLY + PNG).
+"""Repeated-scanning maps (paper III-E): OFDM frames along a trajectory -> points coloured by the
+camera -> world frame by (12) -> outlier removal -> coloured voxel map (PLY + PNG).
 
-OFDM decoding still misranges a few weak beams next to strong ones (see the README), so maps
-built here can carry a few wrong points; the outlier removal takes out isolated ones.
+Registration. The paper registers a frame's points with the odometry pose q_i of the frame
+(``registration="frame"``: the pose when the frame starts, also when its image is taken). The
+beams of a 208.5 ms frame leave from poses up to v x 0.2 m apart, so a moving robot smears
+surfaces (the paper's Fig. 8b failure case; ``experiments/ofdm_motion.py`` measures it).
+``registration="beam"`` uses each beam's own pose at firing instead (motion compensation, which
+needs the odometry at the beam rate).
 """
 
 from __future__ import annotations
@@ -15,11 +18,15 @@ from pathlib import Path
 import numpy as np
 
 from .camera import CameraModel, CameraRenderer
-from .ofdm import OfdmSonar, pose_along
+from .frames import Pose
+from .ofdm import Frame, OfdmSonar, pose_along
 from .sonar import Sonar, SonarConfig
 from .trajectory import Trajectory
 from .validation import check_positive
 from .voxelmap import VoxelMap, VoxelMapSettings, colourise, save_voxel_figure, save_voxel_ply
+
+
+REGISTRATIONS = ("frame", "beam")
 
 
 @dataclass(frozen=True)
@@ -31,6 +38,8 @@ class RepeatedMapSpec:
         scan_step: beam grid step over the field of view [rad] (5 deg: the paper's 13 x 9).
         image_width: camera image width [pixels]; spp: camera samples per pixel.
         voxels: voxel size, outlier removal.
+        registration: "frame" (one odometry pose per frame, as the paper) or "beam" (each
+            beam's pose at firing).
         seed: seeds every frame's noise and diffuse phases.
     """
 
@@ -39,45 +48,77 @@ class RepeatedMapSpec:
     image_width: int = 320
     spp: int = 8
     voxels: VoxelMapSettings = VoxelMapSettings()
+    registration: str = "frame"
     seed: int = 0
 
     def __post_init__(self):
         if int(self.frames) != self.frames or self.frames < 1:
             raise ValueError(f"RepeatedMapSpec.frames must be a positive integer, got {self.frames}")
         check_positive("RepeatedMapSpec.scan_step [rad]", self.scan_step)
+        if self.registration not in REGISTRATIONS:
+            raise ValueError(f"RepeatedMapSpec.registration must be one of {REGISTRATIONS}, got "
+                             f"{self.registration!r}")
 
 
-def map_repeated(sonar: Sonar, trajectory: Trajectory, spec: RepeatedMapSpec = RepeatedMapSpec(),
-                 progress=None):
-    """Build a coloured voxel map; returns (VoxelCloud, sensor positions (F, 3), frames)."""
+@dataclass(frozen=True)
+class ScannedFrame:
+    """One OFDM frame and the camera image taken at its start.
+
+    Attributes:
+        frame: the decoded frame (each beam's pose at firing included).
+        image: (H, W, 3) linear RGB.
+        pose: world-from-sensor pose of the head at the frame's start (odometry stamp, image).
+    """
+
+    frame: Frame
+    image: np.ndarray
+    pose: Pose
+
+
+def scan_repeated(sonar: Sonar, trajectory: Trajectory, spec: RepeatedMapSpec = RepeatedMapSpec(),
+                  progress=None) -> tuple[list[ScannedFrame], CameraModel]:
+    """Fire ``spec.frames`` OFDM frames back to back along the trajectory, with an image each."""
     ofdm = OfdmSonar(sonar)
     schedule = ofdm.schedule(sonar.fov_grid(spec.scan_step))
     camera = CameraRenderer(sonar.scene, CameraModel(spp=spec.spp).at_resolution(spec.image_width))
     pose_at = pose_along(trajectory)
-    voxel_map = VoxelMap()
-    positions, frames = [], []
+    scanned = []
     for k in range(spec.frames):  # frames follow each other in time
         start = k * schedule.frame_duration
         frame = ofdm.frame(schedule, pose_at, start_time=start, seed=spec.seed + k)
-        image_pose = pose_at(start)
-        image = camera.render(image_pose, seed=spec.seed + k).rgb
-        voxel_map.add_frame(colourise(frame.points_sensor, frame.world_from_sensor, image,
-                                      camera.model, image_pose.matrix()))
-        positions.append(image_pose.translation)
-        frames.append(frame)
+        pose = pose_at(start)
+        scanned.append(ScannedFrame(frame, camera.render(pose, seed=spec.seed + k).rgb, pose))
         if progress is not None:
             progress(k)
-    return voxel_map.voxelise(spec.voxels), np.array(positions), frames
+    return scanned, camera.model
+
+
+def build_voxel_map(scanned, camera_model: CameraModel, spec: RepeatedMapSpec = RepeatedMapSpec()):
+    """Colour, register (``spec.registration``) and voxelise scanned frames -> VoxelCloud."""
+    voxel_map = VoxelMap()
+    for s in scanned:
+        poses = s.frame.world_from_sensor if spec.registration == "beam" else s.pose.matrix()
+        voxel_map.add_frame(colourise(s.frame.points_sensor, poses, s.image, camera_model,
+                                      s.pose.matrix()))
+    return voxel_map.voxelise(spec.voxels)
+
+
+def map_repeated(sonar: Sonar, trajectory: Trajectory, spec: RepeatedMapSpec = RepeatedMapSpec(),
+                 progress=None):
+    """Build a coloured voxel map; returns (VoxelCloud, sensor positions (F, 3), scanned frames)."""
+    scanned, camera_model = scan_repeated(sonar, trajectory, spec, progress)
+    positions = np.array([s.pose.translation for s in scanned])
+    return build_voxel_map(scanned, camera_model, spec), positions, scanned
 
 
 def add_cli(subparsers) -> None:
     """``mitsonar map repeated``."""
-    m = subparsers.add_parser("map", help="reconstruction maps (experimental)")
+    m = subparsers.add_parser("map", help="reconstruction maps")
     sub = m.add_subparsers(dest="map_command", required=True)
     r = sub.add_parser("repeated", help="OFDM repeated scanning into a coloured voxel map",
                        description="Fire OFDM frames along the scene's default trajectory (or the "
                                    "waypoints given), colour the points from the camera and "
-                                   "voxelise them. Experimental: see the README.")
+                                   "voxelise them.")
     r.add_argument("scene", type=Path)
     r.add_argument("--out", type=Path, required=True)
     r.add_argument("--frames", type=int, default=5)
@@ -86,6 +127,8 @@ def add_cli(subparsers) -> None:
     r.add_argument("--speed", type=float, default=None, help="override the trajectory speed [m/s]")
     r.add_argument("--broadband", action="store_true",
                    help="broadband transducers (20 kHz at -6 dB) instead of the 2 kHz TCT40 class")
+    r.add_argument("--registration", choices=REGISTRATIONS, default="frame",
+                   help="one odometry pose per frame (the paper's, default) or per beam")
     r.add_argument("--seed", type=int, default=0)
     r.set_defaults(func=_run_repeated)
 
@@ -104,14 +147,15 @@ def _run_repeated(args) -> int:
     if args.speed is not None:
         trajectory = replace(trajectory, speed=args.speed)
     spec = RepeatedMapSpec(frames=args.frames, scan_step=np.radians(args.step),
-                           voxels=VoxelMapSettings(voxel_size=args.voxel), seed=args.seed)
+                           voxels=VoxelMapSettings(voxel_size=args.voxel),
+                           registration=args.registration, seed=args.seed)
     sonar = Sonar(args.scene, config)
     with tqdm(total=spec.frames, desc="frames", unit="frame", file=sys.stderr) as bar:
         voxels, positions, frames = map_repeated(sonar, trajectory, spec, lambda _: bar.update())
     save_voxel_ply(args.out / "voxel_map.ply", voxels)
     save_voxel_figure(args.out / "voxel_map.png", voxels, positions,
                       title=f"{args.scene.parent.name}: {spec.frames} OFDM frames")
-    detected = sum(int(f.detected.sum()) for f in frames)
+    detected = sum(int(s.frame.detected.sum()) for s in frames)
     print(f"{detected} points from {spec.frames} frames -> {len(voxels)} voxels; wrote "
           f"{args.out}/voxel_map.ply and voxel_map.png (top, side and 3-D views).")
     return 0
