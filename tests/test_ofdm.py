@@ -123,3 +123,18 @@ def test_wall_at_rest_has_the_same_depth_from_ofdm_frames_as_from_single_beam_pi
     assert abs(d_ofdm - d_single) <= 0.01
     assert np.degrees(np.arccos(min(1.0, n_ofdm @ n_single))) <= 2.0
     assert np.max(np.abs(ofdm_points[:, 2] - 2.0)) <= 0.10
+
+
+def test_a_schedule_beyond_the_arrays_field_of_view_is_refused(scene_file):
+    from conftest import material_xml, rectangle_xml
+
+    from mitsonar.frames import direction_from_fov_angles
+    from mitsonar.ofdm import OfdmSonar
+
+    sonar = mitsonar.Sonar(scene_file("wall", material_xml("w", preset="concrete"), rectangle_xml("w", (0, 0, 2.0))))
+    ofdm = OfdmSonar(sonar)
+    wide = direction_from_fov_angles(np.radians([0.0, 40.0]), np.radians([0.0, 0.0]))
+    with pytest.raises(ValueError, match="field of view"):
+        ofdm.schedule(wide)
+    with pytest.raises(ValueError, match="field of view"):  # a wider grid than the array's
+        ofdm.schedule(mitsonar.ArrayGeometry(fov_horizontal=np.radians(90)).fov_grid(np.radians(10)))

@@ -332,3 +332,51 @@ def test_saved_ply_and_png(tmp_path):
     assert not list(tmp_path.glob(".*"))  # no temporary files left behind
     save_voxel_figure(tmp_path / "empty.png", VoxelMap().voxelise())  # an empty map still draws
     assert (tmp_path / "empty.png").stat().st_size > 0
+
+
+@pytest.mark.slow
+def test_checkerboard_wall_gives_voxels_with_the_colours_of_its_squares(scene_file):
+    """Full repeated-scanning pipeline (OFDM frame, camera, colours, registration, voxels) on a
+    rough wall 2.1 m ahead with a red/blue checkerboard of 1 m squares. The expected colour of each
+    voxel is the texture (Mitsuba's own checkerboard) at the wall point the camera sees there;
+    voxels within 6 cm of a square's edge (voxel size + footprint) are not judged."""
+    from conftest import rectangle_xml
+
+    from mitsonar.mapping import RepeatedMapSpec, map_repeated
+    from mitsonar.scene import mitsuba
+
+    red, blue = (0.8, 0.05, 0.05), (0.05, 0.05, 0.8)
+    board = ('<texture type="checkerboard" name="reflectance">'
+             f'<rgb name="color0" value="{",".join(map(str, red))}"/>'
+             f'<rgb name="color1" value="{",".join(map(str, blue))}"/>'
+             '<transform name="to_uv"><scale x="2" y="2"/></transform></texture>')
+    material = ('<bsdf type="acoustic" id="w"><string name="preset" value="concrete"/>'
+                '<float name="scattering" value="0.5"/>'  # rough render: diffuse echoes
+                f'<bsdf type="diffuse">{board}</bsdf></bsdf>')
+    wall = rectangle_xml("w", (2.1, 0.64, 1.14), (0, -90, 0), size=(4, 4))  # edges off the beams
+    light = '<emitter type="constant"><rgb name="radiance" value="1"/></emitter>'
+    config = mitsonar.SonarConfig(transducer=mitsonar.Transducer(bandwidth_6db=20e3))
+    sonar = mitsonar.Sonar(scene_file("board", material, wall, light), config)
+    trajectory = mitsonar.Trajectory(np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]]), speed=1e-3)
+    spec = RepeatedMapSpec(frames=1, scan_step=np.radians(7.5), image_width=320, spp=16,
+                           voxels=VoxelMapSettings(voxel_size=0.05, outlier_neighbours=5))
+    voxels, _, _ = map_repeated(sonar, trajectory, spec)
+    coloured = voxels.coloured_counts > 0
+    assert coloured.sum() >= 10
+    p = voxels.positions[coloured]
+    # The texture where each voxel lies on the wall (rays along the wall normal).
+    mi = mitsuba()
+    rays = mi.Ray3f(mi.Point3f(*(p - [1.0, 0, 0]).T), mi.Vector3f(1.0, 0.0, 0.0))
+    si = sonar.scene.scene.ray_intersect(rays)
+    texture = mi.load_dict({"type": "checkerboard", "color0": {"type": "rgb", "value": red},
+                            "color1": {"type": "rgb", "value": blue},
+                            "to_uv": mi.ScalarTransform4f().scale([2, 2, 1])})
+    assert np.all(np.array(si.is_valid()))
+    expected = np.array(texture.eval(si)).T
+    expected_red = expected[:, 0] > expected[:, 2]
+    uv = np.array(si.uv).T * 4.0  # 4 squares of 1 m across
+    edge = np.abs(uv - np.round(uv)).min(axis=1)  # [m] to the nearest square edge
+    judged = edge > 0.06
+    measured_red = voxels.colours[coloured][:, 0] > voxels.colours[coloured][:, 2]
+    assert judged.sum() >= 10  # measured 15 voxels, all judged
+    assert np.mean(measured_red[judged] == expected_red[judged]) >= 0.9  # measured 15 of 15
