@@ -42,13 +42,14 @@ def write_npz(path, **arrays) -> None:
             np.savez_compressed(f, **arrays)
 
 
-def write_ply(path, points, colors=None, scalars: dict | None = None) -> None:
-    """Write an ASCII PLY point cloud, atomically.
+def write_ply(path, points, colors=None, scalars: dict | None = None, faces=None) -> None:
+    """Write an ASCII PLY point cloud (or triangle mesh), atomically.
 
     Args:
         points: (N, 3) positions [m].
         colors: optional (N, 3) uint8 RGB.
         scalars: optional name -> (N,) float32 per-point values (e.g. amplitude).
+        faces: optional (F, 3) vertex indices of triangles.
     """
     pts = np.asarray(points, dtype=float).reshape(-1, 3)
     cols = [pts]
@@ -63,12 +64,18 @@ def write_ply(path, points, colors=None, scalars: dict | None = None) -> None:
         cols.append(np.asarray(values, dtype=float).reshape(-1, 1))
         header.append(f"property float {name}")
         fmt.append("%.6g")
+    tri = np.zeros((0, 3), dtype=np.int64) if faces is None \
+        else np.asarray(faces, dtype=np.int64).reshape(-1, 3)
+    if faces is not None:
+        header += [f"element face {len(tri)}", "property list uchar int vertex_indices"]
     header.append("end_header")
     with atomic_path(path) as tmp:
         with open(tmp, "w") as f:
             f.write("\n".join(header) + "\n")
             if len(pts):
                 np.savetxt(f, np.hstack(cols), fmt=fmt)
+            if len(tri):
+                np.savetxt(f, np.hstack([np.full((len(tri), 1), 3), tri]), fmt="%d")
 
 
 def _json_default(value):

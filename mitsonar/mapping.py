@@ -112,7 +112,7 @@ def map_repeated(sonar: Sonar, trajectory: Trajectory, spec: RepeatedMapSpec = R
 
 
 def add_cli(subparsers) -> None:
-    """``mitsonar map repeated``."""
+    """``mitsonar map repeated`` and ``mitsonar map surfel``."""
     m = subparsers.add_parser("map", help="reconstruction maps")
     sub = m.add_subparsers(dest="map_command", required=True)
     r = sub.add_parser("repeated", help="OFDM repeated scanning into a coloured voxel map",
@@ -131,6 +131,9 @@ def add_cli(subparsers) -> None:
                    help="one odometry pose per frame (the paper's, default) or per beam")
     r.add_argument("--seed", type=int, default=0)
     r.set_defaults(func=_run_repeated)
+    from .surfels import add_cli as add_surfel_cli
+
+    add_surfel_cli(sub)
 
 
 def _run_repeated(args) -> int:

@@ -1,0 +1,208 @@
+"""Surfel scanning (section III-D, Fig. 5): verification, plane fit (14)(15), grouping, regions
+grown between line segments, shadow lines, and reconstructed rendered corners."""
+
+import numpy as np
+import pytest
+
+import mitsonar
+from mitsonar.camera import CameraModel
+from mitsonar.surfels import (PoseScan, SurfelSettings, fit_plane, group_surfels, map_surfels,
+                              region_labels, shadow_segments, verify)
+from conftest import write_scene
+from test_lines import plane_xml
+
+
+def test_verification_rejects_a_surfel_straddling_two_planes():
+    """Three points on a wall 3 m ahead; the centroid on the wall (accepted) or on a box face
+    0.4 m nearer (rejected by the paper's 0.15 m test); a missing echo is rejected too."""
+    three = np.array([[-0.2, -0.1, 3.0], [0.2, -0.1, 3.0], [0.0, 0.25, 3.0]])
+    points = np.stack([np.vstack([three, [0.0, 0.0, 3.01]]),
+                       np.vstack([three, [0.0, 0.0, 2.6]]),
+                       np.vstack([three[:2], [np.nan] * 3, [0.0, 0.0, 3.0]])])
+    accepted, residual = verify(points, 0.15)
+    assert accepted.tolist() == [True, False, False]
+    np.testing.assert_allclose(residual[:2], [0.01, 0.4], atol=1e-12)
+    assert residual[2] == np.inf
+    with pytest.raises(ValueError, match="shape"):
+        verify(np.zeros((2, 3, 3)))
+
+
+def test_plane_fit_recovers_a_noisy_plane():
+    """500 points on a 2 m x 2 m patch of the plane n . x = 1.5 with 5 mm noise along n: the
+    SVD fit (14)(15) is within 0.2 deg and 1 mm, oriented towards the given viewpoint."""
+    rng = np.random.default_rng(0)
+    n = np.array([0.3, -0.2, 0.9])
+    n /= np.linalg.norm(n)
+    e1 = np.cross(n, [1.0, 0, 0])
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(n, e1)
+    uv = rng.uniform(-1, 1, (500, 2))
+    pts = 1.5 * n + uv[:, :1] * e1 + uv[:, 1:] * e2 + rng.normal(0, 0.005, (500, 1)) * n
+    normal, offset = fit_plane(pts, towards=np.zeros(3))  # the origin is on the -n side
+    assert np.degrees(np.arccos(normal @ -n)) < 0.2
+    assert abs(offset + 1.5) < 1e-3
+
+
+def _surfel(centre, e1, e2, size=0.3):
+    """Four points (4, 3) of a surfel: three around ``centre`` in the plane (e1, e2), then it."""
+    c, e1, e2 = (np.asarray(x, float) for x in (centre, e1, e2))
+    return np.array([c + size * e1, c - size * (e1 + e2) / 2, c + size * e2, c])
+
+
+def test_grouping_merges_coplanar_surfels_and_keeps_others_apart():
+    """Five surfels on the wall x = 2 (chained over 3 m, 1 cm noise), two on the floor and one
+    on a parallel wall 0.3 m behind: three groups, the wall's fit within 0.5 deg and 5 mm."""
+    rng = np.random.default_rng(1)
+    wall = [_surfel([2.0, y, z], [0, 1, 0], [0, 0, 1]) for y, z in
+            [(-1.5, 0.5), (-0.8, 1.2), (0.0, 0.4), (0.7, 1.5), (1.5, 0.8)]]
+    floor = [_surfel([x, y, 0.0], [1, 0, 0], [0, 1, 0]) for x, y in [(1.0, 0.0), (0.5, 1.0)]]
+    behind = [_surfel([2.3, 3.0, 1.0], [0, 1, 0], [0, 0, 1])]
+    points = np.array(wall + floor + behind)
+    points[:, :, 0] += rng.normal(0, 0.003, points.shape[:2]) * (np.arange(len(points)) < 5)[:, None]
+    groups = group_surfels(points, np.zeros((len(points), 3)), np.radians(10.0), 0.05)
+    assert groups.label.tolist() == [0, 0, 0, 0, 0, 1, 1, 2]
+    assert np.degrees(np.arccos(abs(groups.normals[0] @ [1, 0, 0]))) < 0.5
+    np.testing.assert_allclose(groups.normals[0], [-1, 0, 0], atol=0.01)  # towards the sensor
+    assert abs(groups.offsets[0] + 2.0) < 0.005
+    np.testing.assert_allclose(groups.normals[1], [0, 0, 1], atol=1e-9)
+    # perpendicular groups never merge, whatever the distance tolerance
+    assert len(group_surfels(points[:7], np.zeros((7, 3)), np.radians(10.0), 10.0)) == 2
+
+
+def _scan_stub(segments, box=(0, 0, 200, 150)):
+    camera = CameraModel().at_resolution(200)
+    return PoseScan(mitsonar.Pose.identity(), camera, box, np.asarray(segments, float),
+                    np.zeros((0, 3, 2)), np.zeros((0, 2), int), np.zeros((0, 4, 3)),
+                    np.zeros(0), np.zeros(0, bool), np.zeros((150, 200)), 0)
+
+
+def test_regions_and_shadow_lines():
+    """A vertical and a horizontal line cut the crop into four regions (the vertical one crosses
+    the whole crop; the horizontal ends 4 px short of it but the 4 px extension closes the
+    gap); a line with the same single plane on both sides is a shadow line, one between two
+    planes or next to an unclaimed region is kept."""
+    segments = [[100.5, 0.5, 100.5, 149.5], [0.5, 75.5, 96.5, 75.5], [103.5, 75.5, 199.5, 75.5]]
+    regions = region_labels(segments, (0, 0, 200, 150), (150, 200))
+    assert regions.max() + 1 == 4
+    assert np.all(regions[:, 99:102] == -1)  # 3 px barrier
+    corners = regions[[10, 10, 140, 140], [10, 190, 10, 190]]
+    assert len(set(corners.tolist())) == 4
+    scan = _scan_stub(segments)
+    claims = np.zeros((4, 2), int)
+    tl, tr, bl, br = corners
+    claims[[tl, bl], 0] = 4           # left: plane 0 above and below the horizontal line
+    claims[tr, 1] = 4                 # top right: plane 1, bottom right: nobody
+    shadow = shadow_segments(scan, regions, claims, offset=5.0)
+    # vertical: plane 0 | plane 1 above, nobody below -> kept; left horizontal: 0 | 0 -> shadow
+    assert shadow.tolist() == [False, True, False]
+    claims[br, 1] = 4
+    assert shadow_segments(scan, regions, claims).tolist() == [False, True, True]
+    claims[tr, 0] = 1  # two planes claim the top right region: undecided, kept
+    assert shadow_segments(scan, regions, claims).tolist() == [False, True, False]
+
+
+# ---- rendered scenes -------------------------------------------------------------------------
+CREASE = np.array([2.0, 2.0, 0.0])  # where the two walls and the floor meet [m]
+SUN = ('<emitter type="directional"><vector name="direction" x="0.45" y="0.45" z="-0.77"/>'
+       '<rgb name="irradiance" value="1"/></emitter>')
+
+
+def _material(mat_id, preset, reflectance):
+    return (f'<bsdf type="acoustic" id="{mat_id}"><string name="preset" value="{preset}"/>'
+            f'<bsdf type="diffuse"><rgb name="reflectance" value="{reflectance}"/></bsdf></bsdf>')
+
+
+def corner_scene(scene_file, tilt_deg=0.0, *extra):
+    """Walls x = 2 (leaning back by ``tilt_deg`` about its crease with the floor) and y = 2,
+    drywall, and a concrete floor z = 0, lit by a sun that reaches all three (no shadows; the
+    three faces differ in brightness). Returns (path, true planes {name: (normal towards the
+    room, offset)})."""
+    t = np.radians(tilt_deg)
+    up = np.array([np.sin(t), 0.0, np.cos(t)])  # up along the leaning wall
+    n_x = np.cross(up, [0, 1, 0])
+    to_sun = -np.array([0.45, 0.45, -0.77]) / np.linalg.norm([0.45, 0.45, -0.77])
+    path = scene_file(  # wall_x's albedo keeps its brightness (0.225 x irradiance) at any tilt
+        "corner", _material("wall_x", "drywall", round(0.225 / (n_x @ to_sun), 3)), _material("wall_y", "drywall", 0.8),
+        _material("floor", "concrete", 0.15), SUN, *extra,
+        plane_xml("wall_x", CREASE + [0, -3, 0] + 1.6 * up, up, [0, 1, 0], (1.6, 3)),
+        plane_xml("wall_y", CREASE + [-3, 0, 1.5], [1, 0, 0], [0, 0, 1], (4, 1.5)),
+        plane_xml("floor", CREASE + [-3, -3, 0], [1, 0, 0], [0, 1, 0], (3, 3)))
+    planes = {"wall_x": (n_x, float(n_x @ CREASE)), "wall_y": (np.array([0, -1.0, 0]), -2.0),
+              "floor": (np.array([0, 0, 1.0]), 0.0)}
+    return path, planes
+
+
+def corner_poses(distance=2.8, yaws_deg=(-8.0, 0.0, 8.0)):
+    """Sensor poses on the robot ``distance`` [m] from the crease, looking at it (yaw 45 deg
+    plus the offsets)."""
+    poses = []
+    for o in np.radians(yaws_deg):
+        yaw = np.radians(45.0) + o
+        poses.append(mitsonar.Pose.sensor_on_robot(2.0 - distance * np.cos(yaw),
+                                                   2.0 - distance * np.sin(yaw), yaw))
+    return poses
+
+
+def plane_errors(groups, planes):
+    """Per true plane: (angle [deg], offset [m]) of the group with the closest normal, and the
+    (G,) group indices used."""
+    out, used = {}, []
+    for name, (n, d) in planes.items():
+        g = int(np.argmax(groups.normals @ n))
+        out[name] = (np.degrees(np.arccos(np.clip(groups.normals[g] @ n, -1, 1))),
+                     groups.offsets[g] - d)
+        used.append(g)
+    return out, used
+
+
+def _reconstruct(tmp_path_factory, tilt_deg):
+    """Surfel map of the corner from three poses 2.8 m away ('paper' sonar preset: the default
+    physical model gives no echo from drywall beyond about 10 deg incidence)."""
+    def scene_file(name, *parts):
+        return write_scene(tmp_path_factory.mktemp("surfels") / f"{name}.xml", *parts)
+
+    path, planes = corner_scene(scene_file, tilt_deg)
+    sonar = mitsonar.Sonar(path, mitsonar.SonarConfig.preset("paper"))
+    return map_surfels(sonar, corner_poses(), settings=SurfelSettings()), planes
+
+
+@pytest.fixture(scope="module")
+def corner_map(tmp_path_factory):
+    return _reconstruct(tmp_path_factory, 0.0)
+
+
+@pytest.mark.slow
+def test_rendered_corner_gives_three_planes(corner_map):
+    """Every candidate surfel of the three poses is registered and lands on the right face: three
+    groups, one per face. Measured (seed 0): normals off by 3.3 deg (wall x = 2), 2.0 deg (wall
+    y = 2), 1.1 deg (floor); the three planes meet 6.6 cm from the true corner. These bounds
+    record what the method achieves here, NOT the surfel issue's 1 cm / 1 deg target
+    (open: the echoes near the creases come early from the neighbouring face)."""
+    surfel_map, planes = corner_map
+    assert len(surfel_map.groups) == 3 and len(surfel_map.surfel_pose) == 9
+    assert np.bincount(surfel_map.groups.label).tolist() == [3, 3, 3]
+    errors, used = plane_errors(surfel_map.groups, planes)
+    assert sorted(used) == [0, 1, 2]
+    assert all(angle < 4.5 for angle, _ in errors.values())
+    corner = np.linalg.solve(surfel_map.groups.normals[used], surfel_map.groups.offsets[used])
+    assert np.linalg.norm(corner - CREASE) < 0.08
+    # the grown mesh lies on the fitted planes and spans the faces beyond the surfels
+    g = surfel_map.groups
+    on_plane = np.abs(np.einsum("fc,fc->f", surfel_map.vertices[surfel_map.triangles[:, 0]],
+                                g.normals[surfel_map.plane]) - g.offsets[surfel_map.plane])
+    assert np.max(on_plane) < 1e-6
+    points, _ = surfel_map.sample(0.01)
+    assert len(points) > 50_000
+
+
+@pytest.mark.slow
+def test_tilted_wall_is_reconstructed_tilted(tmp_path_factory):
+    """The wall x = 2 leaning back 20 deg: its group's tilt from vertical is 20 deg within 4 deg
+    (measured 3.6 deg off, seed 0; the target of 2 deg is not met, same cause as the corner)."""
+    surfel_map, planes = _reconstruct(tmp_path_factory, 20.0)
+    assert len(surfel_map.groups) == 3
+    errors, _ = plane_errors(surfel_map.groups, planes)
+    assert errors["wall_x"][0] < 4.0
+    g = int(np.argmax(surfel_map.groups.normals @ planes["wall_x"][0]))
+    tilt = np.degrees(np.arcsin(surfel_map.groups.normals[g][2]))
+    assert abs(tilt - 20.0) < 4.0
