@@ -125,6 +125,7 @@ def add_cli(subparsers) -> None:
     r.add_argument("--step", type=float, default=5.0, help="beam grid step [deg] (default 5)")
     r.add_argument("--voxel", type=float, default=0.05, help="voxel size [m] (default 0.05)")
     r.add_argument("--speed", type=float, default=None, help="override the trajectory speed [m/s]")
+    r.add_argument("--preset", default="default", help="sonar preset: default or paper")
     r.add_argument("--broadband", action="store_true",
                    help="broadband transducers (20 kHz at -6 dB) instead of the 2 kHz TCT40 class")
     r.add_argument("--registration", choices=REGISTRATIONS, default="frame",
@@ -143,7 +144,7 @@ def _run_repeated(args) -> int:
 
     from .transducer import Transducer
 
-    config = SonarConfig()
+    config = SonarConfig.preset(args.preset)
     if args.broadband:
         config = replace(config, transducer=Transducer(bandwidth_6db=20e3))
     trajectory = Trajectory.from_scene(args.scene)

@@ -1,0 +1,108 @@
+"""Speed against accuracy of the fidelity presets (mitsonar.fidelity) on the shipped scenes.
+
+For each scene, the beams of a field-of-view grid are pinged from a few poses along the scene's
+trajectory at every preset (plus the paper's 25-reflector model). Accuracy is the depth
+difference to the ``fine`` preset on beams both detect (median, 90th percentile) and the
+fraction of beams whose detection decision differs; speed is wall-clock time per ping. Writes a
+CSV + Markdown table and the chart (time per ping against depth error).
+
+    .venv/bin/python experiments/speed_accuracy.py --out out/speed_accuracy           # ~30 min
+    .venv/bin/python experiments/speed_accuracy.py --quick --out out/speed_accuracy   # ~1 min
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+import numpy as np
+
+import mitsonar
+from mitsonar.fidelity import PRESETS, FidelityRun, ping_at
+from mitsonar.io import atomic_path
+from mitsonar.plots import _pyplot
+from mitsonar.scene import load_scene
+from mitsonar.trajectory import sensor_poses
+
+SCENES = Path(__file__).resolve().parents[1] / "scenes"
+
+
+def runs_for_scene(scene_name: str, step_deg: float, n_poses: int, levels) -> dict[str, FidelityRun]:
+    """Runs per level name (and 'paper model') on one scene."""
+    path = SCENES / scene_name / "scene.xml"
+    scene = load_scene(path)
+    trajectory = mitsonar.Trajectory.from_scene(path)
+    poses = sensor_poses(trajectory.poses_at(np.linspace(0, trajectory.duration, n_poses + 2)[1:-1]))
+    directions = mitsonar.ArrayGeometry().fov_grid(np.radians(step_deg))
+    config = mitsonar.SonarConfig()
+    runs = {name: ping_at(scene, config, PRESETS[name], poses, directions) for name in levels}
+    runs["paper model"] = ping_at(scene, mitsonar.SonarConfig.preset("paper"), PRESETS["standard"],
+                                  poses, directions)
+    return runs
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--out", type=Path, default=Path("out/speed_accuracy"))
+    parser.add_argument("--scenes", default="room_glass,office", help="comma separated")
+    parser.add_argument("--step", type=float, default=10.0, help="beam grid step [deg]")
+    parser.add_argument("--poses", type=int, default=3, help="poses along each trajectory")
+    parser.add_argument("--quick", action="store_true", help="room_glass, 20 deg grid, one pose")
+    args = parser.parse_args(argv)
+    scenes, step, n_poses = args.scenes.split(","), args.step, args.poses
+    levels = list(PRESETS)
+    if args.quick:
+        scenes, step, n_poses, levels = ["room_glass"], 20.0, 1, ["draft", "standard", "fine"]
+    rows = []
+    for scene_name in scenes:
+        runs = runs_for_scene(scene_name, step, n_poses, levels)
+        for name, run in runs.items():
+            median, p90, flips = run.depth_error(runs["fine"])
+            rows.append({"scene": scene_name, "level": name, "beams": len(run.depth),
+                         "detected": int(np.isfinite(run.depth).sum()),
+                         "ms_per_ping": 1e3 * run.seconds_per_ping,
+                         "median_depth_diff_mm": 1e3 * median, "p90_depth_diff_mm": 1e3 * p90,
+                         "decision_flips": flips})
+            print(f"{scene_name} {name:12s} {rows[-1]['ms_per_ping']:7.1f} ms/ping, median "
+                  f"{rows[-1]['median_depth_diff_mm']:.2f} mm vs fine, {flips:.0%} flips", file=sys.stderr)
+    write_outputs(args.out, rows)
+    return 0
+
+
+def write_outputs(out: Path, rows: list[dict]) -> None:
+    out.mkdir(parents=True, exist_ok=True)
+    header = list(rows[0])
+    fmt = lambda v: v if isinstance(v, str) else f"{v:.6g}"  # noqa: E731
+    with atomic_path(out / "speed_accuracy.csv") as tmp:
+        tmp.write_text(",".join(header) + "\n"
+                       + "\n".join(",".join(fmt(r[k]) for k in header) for r in rows) + "\n")
+    md = ["| scene | level | ms per ping | detected | median depth diff vs fine [mm] | p90 [mm] | "
+          "decision flips |", "|---|---|---:|---:|---:|---:|---:|"]
+    md += [f"| {r['scene']} | {r['level']} | {r['ms_per_ping']:.0f} | {r['detected']}/{r['beams']} | "
+           f"{r['median_depth_diff_mm']:.2f} | {r['p90_depth_diff_mm']:.1f} | {r['decision_flips']:.0%} |"
+           for r in rows]
+    with atomic_path(out / "speed_accuracy.md") as tmp:
+        tmp.write_text("\n".join(md) + "\n")
+    plt = _pyplot()
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    for scene_name, marker in zip(dict.fromkeys(r["scene"] for r in rows), "osd^v"):
+        for r in (r for r in rows if r["scene"] == scene_name):
+            y = max(r["median_depth_diff_mm"], 1e-3) if np.isfinite(r["median_depth_diff_mm"]) else np.nan
+            ax.loglog(r["ms_per_ping"], y, marker, color=f"C{list(PRESETS).index(r['level']) if r['level'] in PRESETS else 4}")
+            ax.annotate(f"{r['level']} ({scene_name})", (r["ms_per_ping"], y), fontsize=7,
+                        textcoords="offset points", xytext=(4, 3))
+    ax.axvline(30.0, color="0.6", ls=":", label="real sensor, one ping (30 ms)")
+    ax.set_xlabel("wall-clock time per ping, end to end [ms] (2-core CPU)")
+    ax.set_ylabel("median depth difference to 'fine' [mm] (floor 1e-3)")
+    ax.set_title("Fidelity presets: speed against accuracy")
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    with atomic_path(out / "speed_accuracy.png") as tmp:
+        fig.savefig(tmp, dpi=110, format="png")
+    print("\n".join(md))
+    print(f"Wrote {out}/speed_accuracy.csv, .md and .png")
+
+
+if __name__ == "__main__":
+    sys.exit(main())

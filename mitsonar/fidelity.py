@@ -1,0 +1,151 @@
+"""Fidelity levels: the knobs that trade simulation speed for accuracy, as named presets, and an
+automatic choice that models no more than the scene needs.
+
+Knobs: the ray grid (``rays_per_axis``), sub-ray refinement at silhouettes and curved surfaces
+(``refine``), visibility of every receive element (``shadow_rays``), specular multipath
+(``max_bounces``), the recording's sample rate, and the camera's samples per pixel. Presets,
+cheapest first:
+
+========== ============= ====== ============ ========= ============ ==========
+preset     rays_per_axis refine shadow_rays  bounces   sample rate  camera spp
+========== ============= ====== ============ ========= ============ ==========
+draft      16            1      no           1         160 kHz      4
+standard   32            3      yes          1         200 kHz      16
+fine       48            3      yes          1         400 kHz      64
+multipath  48            3      yes          2         400 kHz      64
+========== ============= ====== ============ ========= ============ ==========
+
+``standard`` is :class:`~mitsonar.sonar.SonarConfig`'s default. :func:`choose_fidelity` pings
+sample beams of a scene at every preset up to a reference and returns the cheapest whose
+detections and depths agree with the reference's (median within ``depth_tolerance``): converged,
+so more rays would not change the result. ``experiments/speed_accuracy.py`` charts time against
+depth error for each preset.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from .sonar import Sonar, SonarConfig
+from .validation import check_positive
+
+
+@dataclass(frozen=True)
+class Fidelity:
+    """One fidelity level (see the module docstring for the presets).
+
+    Attributes:
+        name: preset name.
+        rays_per_axis: ray grid per beam is rays_per_axis^2.
+        refine: sub-rays per axis at silhouettes and curved surfaces (1 disables).
+        shadow_rays: test the visibility of every receive element from every hit.
+        max_bounces: 1 (single scattering) or 2 (plus one specular bounce).
+        sample_rate: recording sample rate [Hz] (>= 4x the carrier).
+        camera_spp: camera samples per pixel.
+    """
+
+    name: str
+    rays_per_axis: int
+    refine: int
+    shadow_rays: bool
+    max_bounces: int
+    sample_rate: float
+    camera_spp: int
+
+    def apply(self, config: SonarConfig) -> SonarConfig:
+        """``config`` with this level's trace settings and sample rate; the per-sample noise is
+        rescaled with the bandwidth so that the noise spectral density stays the same."""
+        trace = replace(config.trace, rays_per_axis=self.rays_per_axis, refine=self.refine,
+                        shadow_rays=self.shadow_rays, max_bounces=self.max_bounces)
+        noise = config.noise_rms * np.sqrt(self.sample_rate / config.sample_rate)
+        return replace(config, trace=trace, sample_rate=self.sample_rate, noise_rms=noise)
+
+
+PRESETS: dict[str, Fidelity] = {f.name: f for f in (
+    Fidelity("draft", 16, 1, False, 1, 160e3, 4),
+    Fidelity("standard", 32, 3, True, 1, 200e3, 16),
+    Fidelity("fine", 48, 3, True, 1, 400e3, 64),
+    Fidelity("multipath", 48, 3, True, 2, 400e3, 64),
+)}
+
+
+def fidelity(name: str) -> Fidelity:
+    """The preset called ``name``."""
+    if name not in PRESETS:
+        raise ValueError(f"unknown fidelity preset {name!r}; choose one of {sorted(PRESETS)}")
+    return PRESETS[name]
+
+
+@dataclass(frozen=True)
+class FidelityRun:
+    """Beams pinged at one fidelity level.
+
+    Attributes:
+        fidelity: the level.
+        depth: (B,) depth per beam [m], NaN where nothing was detected.
+        seconds_per_ping: mean wall-clock time of one ping, end to end [s].
+    """
+
+    fidelity: Fidelity
+    depth: np.ndarray
+    seconds_per_ping: float
+
+    def depth_error(self, reference: "FidelityRun") -> tuple[float, float, float]:
+        """(median |depth difference| [m] and 90th percentile over beams both detect, fraction of
+        beams whose detection decision differs) against a reference run."""
+        both = np.isfinite(self.depth) & np.isfinite(reference.depth)
+        diff = np.abs(self.depth[both] - reference.depth[both])
+        flips = float(np.mean(np.isfinite(self.depth) != np.isfinite(reference.depth)))
+        if not both.any():
+            return np.nan, np.nan, flips
+        return float(np.median(diff)), float(np.percentile(diff, 90)), flips
+
+
+def ping_at(scene, config: SonarConfig, level: Fidelity, poses, directions, seed: int = 0) -> FidelityRun:
+    """Ping every direction (B, 3) from every pose at one level (one :class:`Sonar` for all; the
+    scene is loaded once by the caller). Depths are (len(poses) * B,), pose-major."""
+    sonar = Sonar(scene, level.apply(config))
+    sonar.ping(poses[0], directions[0], seed=seed)  # compile the kernels outside the timing
+    depth, start = [], time.perf_counter()
+    for pose in poses:
+        depth += [sonar.ping(pose, u, seed=seed).detection.depth for u in directions]
+    seconds = (time.perf_counter() - start) / len(depth)
+    return FidelityRun(level, np.array(depth), seconds)
+
+
+def choose_fidelity(scene, poses, directions, config: SonarConfig | None = None,
+                    reference: str = "fine", depth_tolerance: float = 1e-3,
+                    max_flips: float = 0.05, seed: int = 0):
+    """The cheapest preset whose pings agree with ``reference`` on sample beams of this scene:
+    median depth difference within ``depth_tolerance`` and at most ``max_flips`` of the beams
+    with a different detection decision. (Diffuse speckle differs between ray grids beam by
+    beam, so agreement is judged on the median, not on every beam.)
+
+    Args:
+        scene: a loaded :class:`~mitsonar.scene.AcousticScene`.
+        poses: sample world-from-sensor poses (e.g. a few along the trajectory).
+        directions: (B, 3) sample beam directions.
+        config: base configuration (default: :class:`SonarConfig`'s default).
+        reference: the preset taken as converged.
+        depth_tolerance: largest median depth difference accepted [m].
+        max_flips: largest fraction of beams whose detection decision may differ.
+        seed: seeds the pings (the same at every level).
+
+    Returns:
+        (chosen :class:`Fidelity`, list of :class:`FidelityRun` from cheapest to the reference).
+    """
+    check_positive("depth_tolerance [m]", depth_tolerance)
+    if not 0 <= max_flips < 1:
+        raise ValueError(f"max_flips must be in [0, 1), got {max_flips}")
+    config = config or SonarConfig()
+    order = list(PRESETS)
+    levels = [PRESETS[name] for name in order[: order.index(fidelity(reference).name) + 1]]
+    runs = [ping_at(scene, config, level, poses, directions, seed) for level in levels]
+    for run in runs:
+        median, _, flips = run.depth_error(runs[-1])
+        if flips <= max_flips and (median <= depth_tolerance or np.isnan(median)):
+            return run.fidelity, runs
+    return runs[-1].fidelity, runs
