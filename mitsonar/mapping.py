@@ -121,6 +121,9 @@ def add_cli(subparsers) -> None:
                                    "voxelise them.")
     r.add_argument("scene", type=Path)
     r.add_argument("--out", type=Path, required=True)
+    r.add_argument("--trajectory", type=Path, default=None,
+                   help="trajectory JSON ({'waypoints': [[x_m, y_m, yaw_deg], ...], 'speed_m_s', "
+                        "'yaw_rate_deg_s'}; default: the one in the scene's ground_truth.json)")
     r.add_argument("--frames", type=int, default=5)
     r.add_argument("--step", type=float, default=5.0, help="beam grid step [deg] (default 5)")
     r.add_argument("--voxel", type=float, default=0.05, help="voxel size [m] (default 0.05)")
@@ -147,7 +150,8 @@ def _run_repeated(args) -> int:
     config = SonarConfig.preset(args.preset)
     if args.broadband:
         config = replace(config, transducer=Transducer(bandwidth_6db=20e3))
-    trajectory = Trajectory.from_scene(args.scene)
+    trajectory = Trajectory.from_file(args.trajectory) if args.trajectory \
+        else Trajectory.from_scene(args.scene)
     if args.speed is not None:
         trajectory = replace(trajectory, speed=args.speed)
     spec = RepeatedMapSpec(frames=args.frames, scan_step=np.radians(args.step),

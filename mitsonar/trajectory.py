@@ -50,14 +50,29 @@ class Trajectory:
     @classmethod
     def from_scene(cls, scene_path) -> "Trajectory":
         """The default trajectory in the ``ground_truth.json`` beside a shipped scene."""
-        path = Path(scene_path).with_name("ground_truth.json")
+        return cls.from_file(Path(scene_path).with_name("ground_truth.json"))
+
+    @classmethod
+    def from_file(cls, path) -> "Trajectory":
+        """A trajectory from JSON: {"waypoints": [[x_m, y_m, yaw_deg], ...], "speed_m_s": ...,
+        "yaw_rate_deg_s": ...}, at the top level or under a "trajectory" key (as in the scenes'
+        ``ground_truth.json``)."""
+        path = Path(path)
         try:
-            data = json.loads(path.read_text())["trajectory"]
-        except (OSError, KeyError, ValueError) as err:
-            raise ValueError(f"{path}: no default trajectory ({err})") from None
-        w = np.array(data["waypoints"], dtype=float)
+            data = json.loads(path.read_text())
+            data = data.get("trajectory", data)
+            w = np.array(data["waypoints"], dtype=float)
+            speed, yaw_rate = float(data["speed_m_s"]), np.radians(float(data["yaw_rate_deg_s"]))
+        except (OSError, KeyError, TypeError, ValueError) as err:
+            raise ValueError(f"{path}: no trajectory ({type(err).__name__}: {err})") from None
+        if w.ndim != 2 or w.shape[1] != 3:
+            raise ValueError(f"{path}: trajectory waypoints must be [[x_m, y_m, yaw_deg], ...], "
+                             f"got shape {w.shape}")
         w[:, 2] = np.radians(w[:, 2])
-        return cls(w, float(data["speed_m_s"]), np.radians(float(data["yaw_rate_deg_s"])))
+        try:
+            return cls(w, speed, yaw_rate)
+        except ValueError as err:
+            raise ValueError(f"{path}: {err}") from None
 
     def segment_times(self) -> np.ndarray:
         """(K,) time [s] at which each waypoint is reached."""

@@ -143,3 +143,21 @@ def test_shipped_window_is_seen_through_by_the_camera_and_reflects_sound():
     pane_px, wall_px = images.rgb[int(pv), int(pu)], images.rgb[int(wv), int(wu)]
     assert sonar.scene.shape_ids[images.shape_index[int(pv), int(pu)]] == "window_east"
     assert pane_px[2] > pane_px[0] and pane_px.mean() > 2 * wall_px.mean()  # blue sky, bright
+
+
+def test_trajectory_files_are_read_and_bad_ones_named(tmp_path):
+    import json
+
+    good = tmp_path / "path.json"
+    good.write_text(json.dumps({"waypoints": [[0, 0, 0], [2, 0, 90]], "speed_m_s": 0.5,
+                                "yaw_rate_deg_s": 45}))
+    traj = Trajectory.from_file(good)
+    np.testing.assert_allclose(traj.waypoints[-1], [2, 0, np.pi / 2])
+    assert traj.speed == 0.5 and traj.yaw_rate == pytest.approx(np.pi / 4)
+    bad = tmp_path / "bad.json"
+    bad.write_text(json.dumps({"waypoints": [[0, 0, 0], [float("nan"), 0, 0]], "speed_m_s": 0.5,
+                               "yaw_rate_deg_s": 45}))
+    with pytest.raises(ValueError, match="bad.json.*not finite"):
+        Trajectory.from_file(bad)
+    with pytest.raises(ValueError, match="missing.json"):
+        Trajectory.from_file(tmp_path / "missing.json")

@@ -95,15 +95,15 @@ def test_open3d_imports_with_the_shipped_libusb():
 
 
 def test_map_repeated_command_writes_a_coloured_voxel_map(scene_file, tmp_path, capsys):
-    """Experimental repeated-scanning map: one OFDM frame of 9 beams on a concrete wall."""
+    """Repeated-scanning map along a trajectory file: one OFDM frame of 9 beams on a wall."""
     wall = rectangle_xml("w", (2.1, 0.0, 0.5), (0, -90, 0), size=(10, 10))
     light = ('<emitter type="constant"><rgb name="radiance" value="1"/></emitter>')
     scene = scene_file("wall", material_xml("w", preset="concrete"), wall, light)
-    (tmp_path / "ground_truth.json").write_text(json.dumps({"trajectory": {
-        "waypoints": [[0, 0, 0], [1, 0, 0]], "speed_m_s": 0.2, "yaw_rate_deg_s": 30}}))
+    (tmp_path / "path.json").write_text(json.dumps({
+        "waypoints": [[0, 0, 0], [1, 0, 0]], "speed_m_s": 0.2, "yaw_rate_deg_s": 30}))
     out = tmp_path / "map"
     assert main(["map", "repeated", scene, "--out", str(out), "--frames", "1", "--step", "20",
-                 "--broadband"]) == 0
+                 "--trajectory", str(tmp_path / "path.json"), "--broadband"]) == 0
     ply = (out / "voxel_map.ply").read_text().splitlines()
     n = int(next(line.split()[-1] for line in ply if line.startswith("element vertex")))
     points = np.loadtxt(ply[ply.index("end_header") + 1:], ndmin=2)
