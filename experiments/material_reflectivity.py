@@ -23,9 +23,9 @@ from pathlib import Path
 import numpy as np
 
 import mitsonar
-from mitsonar.io import atomic_path
+from mitsonar.io import atomic_path, write_table
 from mitsonar.materials import preset
-from mitsonar.plots import _pyplot
+from mitsonar.plots import _pyplot, save_png
 
 BROADSIDE = np.array([0.0, 0.0, 1.0])
 DISTANCE = 2.0  # wall distance [m]
@@ -102,18 +102,10 @@ def main(argv=None) -> int:
     return 0
 
 
-def _write_csv(path: Path, rows: list[dict]) -> None:
-    header = list(rows[0])
-    fmt = lambda v: v if isinstance(v, str) else f"{v:.6g}"  # noqa: E731
-    with atomic_path(path) as tmp:
-        tmp.write_text(",".join(header) + "\n"
-                       + "\n".join(",".join(fmt(r[k]) for k in header) for r in rows) + "\n")
-
-
 def write_outputs(out: Path, table_a: list[dict], table_b: list[dict]) -> None:
     out.mkdir(parents=True, exist_ok=True)
-    _write_csv(out / "impedance.csv", table_a)
-    _write_csv(out / "incidence.csv", table_b)
+    write_table(out / "impedance.csv", table_a)
+    write_table(out / "incidence.csv", table_b)
     md = ["| material | Z [Rayl] | R measured | R by (4) |", "|---|---:|---:|---:|"]
     md += [f"| {r['material']} | {r['impedance_rayl']:.3g} | {r['energy_reflection_measured']:.4f} | "
            f"{r['energy_reflection_eq4']:.4f} |" for r in table_a]
@@ -158,8 +150,7 @@ def write_outputs(out: Path, table_a: list[dict], table_b: list[dict]) -> None:
     a3.set_ylabel("detection rate [%]")
     a3.set_ylim(-5, 105)
     fig.tight_layout()
-    with atomic_path(out / "material_reflectivity.png") as tmp:
-        fig.savefig(tmp, dpi=110, format="png")
+    save_png(fig, out / "material_reflectivity.png")
     print("\n".join(md))
     print(f"Wrote {out}/impedance.csv, incidence.csv, material_reflectivity.md and .png")
 

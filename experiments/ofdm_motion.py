@@ -22,9 +22,9 @@ from pathlib import Path
 import numpy as np
 
 import mitsonar
-from mitsonar.io import atomic_path
+from mitsonar.io import write_table
 from mitsonar.mapping import REGISTRATIONS, RepeatedMapSpec, build_voxel_map, scan_repeated
-from mitsonar.plots import _pyplot
+from mitsonar.plots import _pyplot, save_png
 from mitsonar.voxelmap import VoxelMapSettings
 
 #: World x of the wall [m]; the robot starts at x = 0 facing +x (sensor head at x = 0.1).
@@ -89,16 +89,11 @@ def main(argv=None) -> int:
 
 def write_outputs(out: Path, rows: list[dict], frames: int, step: float) -> None:
     out.mkdir(parents=True, exist_ok=True)
-    header = list(rows[0])
-    with atomic_path(out / "ofdm_motion.csv") as tmp:
-        tmp.write_text(",".join(header) + "\n"
-                       + "\n".join(",".join(f"{r[k]:.6g}" for k in header) for r in rows) + "\n")
     md = ["| speed [m/s] | motion per frame [cm] | points | thickness, frame pose [cm] | "
           "thickness, beam poses [cm] |", "|---:|---:|---:|---:|---:|"]
     md += [f"| {r['speed_m_s']:.2f} | {100 * r['smear_per_frame_m']:.1f} | {r['points']} | "
            f"{100 * r['thickness_frame_m']:.1f} | {100 * r['thickness_beam_m']:.1f} |" for r in rows]
-    with atomic_path(out / "ofdm_motion.md") as tmp:
-        tmp.write_text("\n".join(md) + "\n")
+    write_table(out / "ofdm_motion.csv", rows, md)
     plt = _pyplot()
     v = np.array([r["speed_m_s"] for r in rows])
     fig, ax = plt.subplots(figsize=(6, 4))
@@ -111,8 +106,7 @@ def write_outputs(out: Path, rows: list[dict], frames: int, step: float) -> None
     ax.set_title(f"OFDM repeated scanning: {frames} frames, {step:g} deg beams, 2 cm voxels")
     ax.legend()
     fig.tight_layout()
-    with atomic_path(out / "ofdm_motion.png") as tmp:
-        fig.savefig(tmp, dpi=110, format="png")
+    save_png(fig, out / "ofdm_motion.png")
     print("\n".join(md))
     print(f"Wrote {out}/ofdm_motion.csv, .md and .png")
 

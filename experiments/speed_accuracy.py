@@ -20,8 +20,8 @@ import numpy as np
 
 import mitsonar
 from mitsonar.fidelity import PRESETS, FidelityRun, ping_at
-from mitsonar.io import atomic_path
-from mitsonar.plots import _pyplot
+from mitsonar.io import write_table
+from mitsonar.plots import _pyplot, save_png
 from mitsonar.scene import load_scene
 from mitsonar.trajectory import sensor_poses
 
@@ -72,18 +72,12 @@ def main(argv=None) -> int:
 
 def write_outputs(out: Path, rows: list[dict]) -> None:
     out.mkdir(parents=True, exist_ok=True)
-    header = list(rows[0])
-    fmt = lambda v: v if isinstance(v, str) else f"{v:.6g}"  # noqa: E731
-    with atomic_path(out / "speed_accuracy.csv") as tmp:
-        tmp.write_text(",".join(header) + "\n"
-                       + "\n".join(",".join(fmt(r[k]) for k in header) for r in rows) + "\n")
     md = ["| scene | level | ms per ping | detected | median depth diff vs fine [mm] | p90 [mm] | "
           "decision flips |", "|---|---|---:|---:|---:|---:|---:|"]
     md += [f"| {r['scene']} | {r['level']} | {r['ms_per_ping']:.0f} | {r['detected']}/{r['beams']} | "
            f"{r['median_depth_diff_mm']:.2f} | {r['p90_depth_diff_mm']:.1f} | {r['decision_flips']:.0%} |"
            for r in rows]
-    with atomic_path(out / "speed_accuracy.md") as tmp:
-        tmp.write_text("\n".join(md) + "\n")
+    write_table(out / "speed_accuracy.csv", rows, md)
     plt = _pyplot()
     fig, ax = plt.subplots(figsize=(7, 4.5))
     for scene_name, marker in zip(dict.fromkeys(r["scene"] for r in rows), "osd^v"):
@@ -98,8 +92,7 @@ def write_outputs(out: Path, rows: list[dict]) -> None:
     ax.set_title("Fidelity presets: speed against accuracy")
     ax.legend(fontsize=8)
     fig.tight_layout()
-    with atomic_path(out / "speed_accuracy.png") as tmp:
-        fig.savefig(tmp, dpi=110, format="png")
+    save_png(fig, out / "speed_accuracy.png")
     print("\n".join(md))
     print(f"Wrote {out}/speed_accuracy.csv, .md and .png")
 

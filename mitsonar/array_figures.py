@@ -29,19 +29,12 @@ from .array_design import (BeamCriteria, default_layout_path, evaluate_layout, l
 from .beampattern import steered_patterns
 from .frames import direction_from_fov_angles
 from .io import atomic_path
-from .plots import _pyplot
+from .plots import _pyplot, save_png
 
 #: Steering directions (horizontal, vertical) [rad] of the beam-pattern figures.
 FIGURE_STEERS = (np.radians([0.0, 0.0]), np.radians([20.0, 0.0]), np.radians([30.0, 20.0]))
 #: OFDM tones of the repeated-scanning mode [Hz].
 OFDM_TONES = np.array([32e3, 36e3, 40e3, 44e3, 48e3])
-
-
-def _save(fig, path) -> None:
-    plt = _pyplot()
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp, dpi=110, format="png")
-    plt.close(fig)
 
 
 def _write_text(path, text: str) -> None:
@@ -79,7 +72,7 @@ def plot_element_pattern(path, criteria: BeamCriteria) -> None:
     ax.grid(alpha=0.3)
     ax.legend(loc="lower center", fontsize=8, ncol=3)
     fig.tight_layout()
-    _save(fig, path)
+    save_png(fig, path)
 
 
 def plot_frequency_response(path, criteria: BeamCriteria) -> None:
@@ -115,7 +108,7 @@ def plot_frequency_response(path, criteria: BeamCriteria) -> None:
     axp.grid(alpha=0.3)
     axp.legend(fontsize=8)
     fig.tight_layout()
-    _save(fig, path)
+    save_png(fig, path)
 
 
 def plot_layouts(path, layouts: dict, baseline: float) -> None:
@@ -146,7 +139,7 @@ def plot_layouts(path, layouts: dict, baseline: float) -> None:
     fig.suptitle(f"Element layouts: 10 mm cans, dashed: +-5 cm apertures, receive origin "
                  f"{baseline * 1e3:.1f} mm right of the transmit origin", fontsize=10)
     fig.tight_layout()
-    _save(fig, path)
+    save_png(fig, path)
 
 
 def plot_beam_patterns(path, arrays: dict, criteria: BeamCriteria) -> None:
@@ -181,7 +174,7 @@ def plot_beam_patterns(path, arrays: dict, criteria: BeamCriteria) -> None:
     fig.colorbar(im, ax=axes, shrink=0.8, label="one-way pattern [dB re steered main lobe]")
     fig.suptitle("One-way beam patterns (element x array factor); dashed: 60 x 40 deg field of view",
                  fontsize=11)
-    _save(fig, path)
+    save_png(fig, path)
 
 
 def plot_beam_cuts(path, arrays: dict, criteria: BeamCriteria) -> None:
@@ -213,7 +206,7 @@ def plot_beam_cuts(path, arrays: dict, criteria: BeamCriteria) -> None:
         ax.grid(alpha=0.3)
     axes[0, 0].legend(fontsize=8, loc="lower left")
     fig.tight_layout()
-    _save(fig, path)
+    save_png(fig, path)
 
 
 def plot_psll_width_maps(path, metrics: dict) -> None:
@@ -250,7 +243,7 @@ def plot_psll_width_maps(path, metrics: dict) -> None:
     fig.colorbar(im1, ax=axes[1:].ravel().tolist(), label="3 dB width [deg]", shrink=0.9)
     fig.suptitle("Beam quality over the 60 x 40 deg field of view (side lobes searched inside it)",
                  fontsize=11)
-    _save(fig, path)
+    save_png(fig, path)
 
 
 def plot_convergence(path, history) -> None:
@@ -264,7 +257,7 @@ def plot_convergence(path, history) -> None:
                  fontsize=9)
     ax.grid(alpha=0.3)
     fig.tight_layout()
-    _save(fig, path)
+    save_png(fig, path)
 
 
 METRIC_COLUMNS = ("layout", "pattern", "worst_psll_db", "broadside_psll_db",

@@ -35,6 +35,20 @@ def write_json(path, data) -> None:
         tmp.write_text(json.dumps(data, indent=2, default=_json_default) + "\n")
 
 
+def write_table(path, rows: list[dict], markdown: list[str] | None = None) -> None:
+    """Write rows (dicts with the same keys) as ``path`` .csv, atomically; with ``markdown``
+    lines also the .md beside it (experiments' tables)."""
+    path = Path(path)
+    header = list(rows[0])
+    cell = lambda v: v if isinstance(v, str) else f"{v:.6g}"  # noqa: E731
+    with atomic_path(path.with_suffix(".csv")) as tmp:
+        tmp.write_text(",".join(header) + "\n"
+                       + "\n".join(",".join(cell(r[k]) for k in header) for r in rows) + "\n")
+    if markdown is not None:
+        with atomic_path(path.with_suffix(".md")) as tmp:
+            tmp.write_text("\n".join(markdown) + "\n")
+
+
 def write_npz(path, **arrays) -> None:
     """Write arrays to a compressed .npz, atomically."""
     with atomic_path(path) as tmp:

@@ -33,6 +33,7 @@ from pathlib import Path
 import numpy as np
 
 from .io import atomic_path, write_json
+from .plots import save_png
 from .scene import AcousticScene, SceneMesh, mitsuba
 from .validation import check_finite, check_positive
 
@@ -397,9 +398,7 @@ def save_error_figure(path, points, distance, threshold: float, title: str = "",
     ax_cdf.legend(loc="lower right")
     if title:
         fig.suptitle(title)
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp, dpi=110, format="png")
-    plt.close(fig)
+    save_png(fig, path)
 
 
 def add_cli(subparsers) -> None:

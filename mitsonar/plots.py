@@ -17,6 +17,13 @@ def _pyplot():
     return plt
 
 
+def save_png(fig, path) -> None:
+    """Save a matplotlib figure as PNG (110 dpi), atomically, and close it."""
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=110, format="png")
+    _pyplot().close(fig)
+
+
 def save_scan_figure(path, scan, title: str = "") -> None:
     """Depth and echo amplitude over the scanned directions, plus a top view of the points."""
     plt = _pyplot()
@@ -53,9 +60,7 @@ def save_scan_figure(path, scan, title: str = "") -> None:
     if title:
         fig.suptitle(title)
     fig.tight_layout()
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp, dpi=110, format="png")
-    plt.close(fig)
+    save_png(fig, path)
 
 
 def _step(values) -> float:

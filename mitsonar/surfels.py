@@ -1,5 +1,6 @@
 """Surfel scanning reconstruction (paper section III-D, Fig. 5): camera lines -> triangle surfels
--> four pings each -> verification -> registration (12) -> plane optimisation (14)(15) ->
+-> four pings each -> verification -> registration (12) -> fill pings -> plane optimisation
+(14)(15) and joint refinement with the image creases ->
 planes grown inside the image regions bounded by the line segments -> surfel map.
 
 Per pose (:func:`scan_pose`): the image is rendered, line segments are detected in the part
@@ -16,6 +17,39 @@ a wall). Each group's plane is the least-squares fit (14)(15) of its points: the
 singular vector of the centred points, oriented towards the sensor positions that saw it. Then,
 until nothing changes: every surfel moves to the group whose fitted plane fits it best (or to a
 group of its own if none is within the tolerances), and groups whose fitted planes agree merge.
+
+Deviations from the paper, measured on a rendered room corner (two walls and a floor, three
+poses 2.8 m away, 'paper' preset; per scan point, measured against the true range along the
+beam): the echo of a scan point always comes from the face it is aimed at (all 25 reflectors of
+the paper model, and all rays within 4 deg of the axis of the physical model, hit that face, the
+nearest crease being 17 cm or more away), so neighbouring faces are not the error source. The
+error is the footprint's: at incidence theta the footprint spans r w tan(theta) in range
+(10-25 cm on the walls at 20-47 deg, 50-65 cm on the floor at 73-75 deg) and the strongest
+envelope peak picks a part of it, as if the echo came from a direction about 1 deg off the axis:
+points lie 0-3.5 cm off their plane on the walls (random sign), +3.2-3.8 cm on the floor (the
+nearer part of a grazing footprint echoes louder); the physical model's diffuse speckle is worse
+(up to 6 cm off on the walls, 25 cm range errors on the floor). Four such points per surfel and
+three surfels per face give normals 1-3 deg off. Hence:
+
+* Fill pings (:func:`fill_pixels`): each registered surfel is pinged again at up to
+  ``max_fill`` pixels on a grid of one footprint (``fill_spacing``, 5 deg) inside its triangle,
+  at least ``fill_margin`` (3 deg: half a footprint plus the line's error) from its edges, so no
+  footprint reaches across a crease; these beams are re-aimed at the plane of the surfel's four
+  measured points (:func:`~mitsonar.lines.scan_directions` with a depth), removing the 7.5 cm
+  camera-array parallax. Fill echoes farther than ``verify_threshold`` from the surfel's plane
+  are dropped. They join the group fits (14)(15) but not the verification.
+* Joint refinement (:func:`refine_planes`): the planes are refitted together, minimising robust
+  (soft L1) residuals of (a) every point's distance from its plane over its expected error
+  sqrt(``range_sigma``^2 + (r tan(``angle_sigma``) sin(theta))^2), which down-weights grazing
+  points, and (b) for every detected segment with a different plane on each side (a crease,
+  :func:`segment_sides`), the pixel distance of its ends from the image of the line where the two
+  planes meet, over ``crease_sigma``. The camera fixes where planes meet (the paper's "planes
+  expand until they intersect ... constrained by the line segments", used here as a constraint
+  on the fit), the sonar fixes the depth and the rest of the orientation. Constraints whose
+  residual on the sonar-only planes exceeds ``crease_gate`` (an occlusion edge, a segment
+  between unrelated planes) are left out. On the corner this gives normals within 0.7 deg and
+  the corner within 5 mm (tests/test_surfels.py); the pose meshes are then grown again on the
+  refined planes. ``max_fill=0, refine=False`` is the paper's method.
 
 Growing (:func:`region_labels`, :func:`grow_planes`): the detected segments, extended by
 ``barrier_extension`` and drawn ``barrier_width`` thick, cut the field-of-view crop into
@@ -77,6 +111,20 @@ class SurfelSettings:
         shadow_offset: distance across a segment at which its two sides are sampled [pixels].
         max_iterations: cap on the regroup/refit iterations.
         seed: seeds the images and the pings.
+        fill_spacing: angular spacing of the fill pings inside a registered surfel [rad] (about
+            one beam footprint, 5 deg: neighbouring footprints barely overlap, so their range
+            errors are nearly independent).
+        fill_margin: smallest angle between a fill ping and the surfel's two line segments [rad]
+            (the footprint's half-width, 2.5 deg, plus 0.5 deg for the line's pixel error).
+        max_fill: most fill pings per surfel (0: the paper's four pings only).
+        refine: refine the planes jointly with the crease constraints (module docstring).
+        range_sigma, angle_sigma: a point at range r seen at incidence theta is expected off
+            its plane by sqrt(range_sigma^2 + (r tan(angle_sigma) sin(theta))^2) [m]: the echo's
+            range belongs to a direction up to a fraction of the footprint off the beam axis
+            (1 deg: 2-3.5 cm measured at 2-2.5 m and 20-75 deg incidence), plus the timing error.
+        crease_sigma: expected error of a detected line [pixels].
+        crease_gate: crease constraints whose sonar-only residual exceeds this [pixels] are not
+            used (an occlusion edge or a segment between two unrelated planes).
     """
 
     image_width: int = 400
@@ -92,8 +140,21 @@ class SurfelSettings:
     shadow_offset: float = 5.0
     max_iterations: int = 20
     seed: int = 0
+    fill_spacing: float = np.radians(5.0)
+    fill_margin: float = np.radians(3.0)
+    max_fill: int = 8
+    refine: bool = True
+    range_sigma: float = 0.005
+    angle_sigma: float = np.radians(1.0)
+    crease_sigma: float = 1.0
+    crease_gate: float = 30.0
 
     def __post_init__(self):
+        if int(self.max_fill) != self.max_fill or self.max_fill < 0:
+            raise ValueError(f"SurfelSettings.max_fill must be an integer >= 0, got {self.max_fill}")
+        for name in ("fill_spacing", "fill_margin", "range_sigma", "angle_sigma", "crease_sigma",
+                     "crease_gate"):
+            check_positive(f"SurfelSettings.{name}", getattr(self, name))
         for name in ("image_width", "spp", "barrier_width", "stride", "max_iterations"):
             value = getattr(self, name)
             if int(value) != value or value < 1:
@@ -212,20 +273,32 @@ class PlaneGroups:
         return len(self.normals)
 
 
-def _fit_groups(points, viewpoints, label):
+def _group_points(points, extra, label, g) -> np.ndarray:
+    """(n, 3) finite points of group g: the surfels' (k, 4, 3) points and their fill points
+    (k, m, 3) (None: none)."""
+    p = points[label == g].reshape(-1, 3)
+    if extra is not None and extra.shape[1]:
+        e = extra[label == g].reshape(-1, 3)
+        p = np.concatenate([p, e[np.all(np.isfinite(e), axis=1)]])
+    return p
+
+
+def _fit_groups(points, viewpoints, label, extra=None):
     """Normals (G, 3), offsets (G,), centroids (G, 3) of the groups ``label`` (k,) of surfels
-    with points (k, 4, 3), oriented towards the mean viewpoint (k, 3) of each group."""
+    with points (k, 4, 3) and fill points (k, m, 3) (optional, NaN-padded), oriented towards
+    the mean viewpoint (k, 3) of each group."""
     count = label.max() + 1
-    fits = [fit_plane(points[label == g].reshape(-1, 3), viewpoints[label == g].mean(axis=0))
+    pts = [_group_points(points, extra, label, g) for g in range(count)]
+    fits = [fit_plane(pts[g], viewpoints[label == g].mean(axis=0))
             for g in range(count)]  # one SVD per group: a few dozen at most
     normals = np.array([f[0] for f in fits]).reshape(-1, 3)
     offsets = np.array([f[1] for f in fits])
-    centroids = np.array([points[label == g].reshape(-1, 3).mean(axis=0) for g in range(count)])
+    centroids = np.array([q.mean(axis=0) for q in pts])
     return normals, offsets, centroids.reshape(-1, 3)
 
 
 def group_surfels(points, viewpoints, angle: float = np.radians(10.0), distance: float = 0.05,
-                  max_iterations: int = 20) -> PlaneGroups:
+                  max_iterations: int = 20, extra=None) -> PlaneGroups:
     """Plane groups of registered surfels (module docstring: grouping, (14)(15), iteration).
 
     Args:
@@ -234,6 +307,7 @@ def group_surfels(points, viewpoints, angle: float = np.radians(10.0), distance:
         angle: largest normal difference within a group [rad]; distance: largest centroid to
             plane distance within a group [m].
         max_iterations: cap on the regroup/refit rounds.
+        extra: (k, m, 3) fill points of each surfel [m] (NaN-padded), used in the group fits.
     """
     p = np.asarray(points, dtype=float)
     if p.ndim != 3 or p.shape[1:] != (4, 3):
@@ -243,6 +317,7 @@ def group_surfels(points, viewpoints, angle: float = np.radians(10.0), distance:
         raise ValueError(f"viewpoints must have shape ({len(p)}, 3), got {view.shape}")
     check_range("merge angle [rad]", angle, 0.0, np.pi / 2)
     check_positive("merge distance [m]", distance)
+    extra = None if extra is None else np.asarray(extra, dtype=float).reshape(len(p), -1, 3)
     if len(p) == 0:
         return PlaneGroups(np.zeros(0, int), np.zeros((0, 3)), np.zeros(0), np.zeros((0, 3)), 0)
     n, d = plane_through(p)
@@ -250,7 +325,7 @@ def group_surfels(points, viewpoints, angle: float = np.radians(10.0), distance:
     i, j = np.nonzero(np.triu(_compatible(n, d, c, n, d, c, angle, distance), k=1))
     label = _components(len(p), i, j)
     for iteration in range(1, max_iterations + 1):
-        gn, gd, gc = _fit_groups(p, view, label)
+        gn, gd, gc = _fit_groups(p, view, label, extra)
         # each surfel to the best-fitting compatible group, else a group of its own
         fits = _compatible(n, d, c, gn, gd, gc, angle, distance) \
             & (np.abs(c @ gn.T - gd[None, :]) <= distance)
@@ -258,13 +333,13 @@ def group_surfels(points, viewpoints, angle: float = np.radians(10.0), distance:
         own = label.max() + 1 + np.arange(len(p))
         moved = np.where(fits.any(axis=1), np.argmin(misfit, axis=1), own)
         moved = _relabel(moved)
-        gn, gd, gc = _fit_groups(p, view, moved)
+        gn, gd, gc = _fit_groups(p, view, moved, extra)
         a, b = np.nonzero(np.triu(_compatible(gn, gd, gc, gn, gd, gc, angle, distance), k=1))
         merged = _components(len(gn), a, b)[moved]
         if np.array_equal(merged, label):
             break
         label = merged
-    gn, gd, gc = _fit_groups(p, view, label)
+    gn, gd, gc = _fit_groups(p, view, label, extra)
     return PlaneGroups(label, gn, gd, gc, iteration)
 
 
@@ -312,6 +387,8 @@ class PoseScan:
         accepted: (k,) registered.
         gray: (H, W) linear luminance image (for figures).
         pings: beams fired.
+        fill_world: (k, max_fill, 3) measured fill points of the registered surfels [m], NaN
+            where none (None: no fill pings).
     """
 
     pose: Pose
@@ -325,6 +402,7 @@ class PoseScan:
     accepted: np.ndarray
     gray: np.ndarray
     pings: int
+    fill_world: np.ndarray | None = None
 
 
 def tone_map(gray, percentile: float = 99.0) -> np.ndarray:
@@ -334,6 +412,77 @@ def tone_map(gray, percentile: float = 99.0) -> np.ndarray:
     top = np.percentile(g, percentile) if g.size else 1.0
     top = top if top > 0 else 1.0
     return np.clip(g / top, 0.0, 1.0) ** (1 / 2.2)
+
+
+def fill_pixels(triangles, spacing: float, margin: float, count: int) -> np.ndarray:
+    """Fill scan pixels (k, count, 2) [pixels] inside triangles (k, 3, 2), NaN-padded.
+
+    Candidates lie on a square grid of ``spacing`` [pixels] anchored at the centroid, at least
+    ``margin`` [pixels] inside every edge; starting from the paper's four scan pixels, the
+    candidate farthest from all chosen pixels is taken next (farthest-point sampling) until
+    ``count`` are chosen or the farthest is nearer than ``spacing`` / 2.
+    """
+    tri = np.asarray(triangles, dtype=float).reshape(-1, 3, 2)
+    out = np.full((len(tri), count, 2), np.nan)
+    if count == 0:
+        return out
+    for k, t in enumerate(tri):  # a few dozen surfels
+        c = t.mean(axis=0)
+        reach = np.max(np.linalg.norm(t - c, axis=1))
+        steps = np.arange(-np.ceil(reach / spacing), np.ceil(reach / spacing) + 1) * spacing
+        grid = c + np.stack(np.meshgrid(steps, steps), axis=-1).reshape(-1, 2)
+        inside = np.ones(len(grid), bool)
+        for i in range(3):  # signed distance to each edge, positive towards the third vertex
+            a, b, o = t[i], t[(i + 1) % 3], t[(i + 2) % 3]
+            e = (b - a) / max(np.linalg.norm(b - a), 1e-12)
+            nrm = np.array([-e[1], e[0]])
+            nrm = nrm if (o - a) @ nrm > 0 else -nrm
+            inside &= (grid - a) @ nrm >= margin
+        cand = grid[inside]
+        chosen = list(scan_pixels(t[None])[0])
+        for j in range(count):
+            if len(cand) == 0:
+                break
+            dist = np.min(np.linalg.norm(cand[:, None] - np.array(chosen)[None], axis=-1), axis=1)
+            best = int(np.argmax(dist))
+            if dist[best] < spacing / 2:
+                break
+            out[k, j] = cand[best]
+            chosen.append(cand[best])
+    return out
+
+
+def _fill_directions(camera: CameraModel, geometry, pixels, points_sensor):
+    """Beam directions (k, m, 3) (NaN where none) for fill pixels (k, m, 2), re-aimed at the
+    plane of each surfel's four measured points (k, 4, 3) (sensor frame) to remove the camera's
+    parallax; directions outside the field of view are dropped (NaN)."""
+    from .frames import fov_angles
+
+    k, m = pixels.shape[:2]
+    out = np.full((k, m, 3), np.nan)
+    ok = np.all(np.isfinite(pixels), axis=-1) & np.all(np.isfinite(points_sensor), axis=(1, 2))[:, None]
+    if not np.any(ok):
+        return out
+    uc, vc = camera.principal_point
+    f = camera.focal_pixels
+    ray = np.stack([(pixels[..., 0] - uc) / f, (pixels[..., 1] - vc) / f, np.ones((k, m))], -1)
+    normal = np.zeros((k, 3))
+    offset = np.zeros(k)
+    for i in np.nonzero(ok.any(axis=1))[0]:
+        normal[i], offset[i] = fit_plane(points_sensor[i])
+    origin = np.asarray(camera.offset, dtype=float)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = (offset - normal @ origin)[:, None] / np.einsum("kmc,kc->km", ray, normal)
+    depth = origin[2] + t  # sensor-frame z of the camera ray's hit of the surfel plane
+    ok &= np.isfinite(depth) & (depth > 0.05)
+    if not np.any(ok):
+        return out
+    dirs = scan_directions(camera, pixels[ok], depth=depth[ok])
+    h, v = fov_angles(dirs)
+    inside = (np.abs(h) <= geometry.fov_horizontal / 2) & (np.abs(v) <= geometry.fov_vertical / 2)
+    rows = np.nonzero(ok)
+    out[rows[0][inside], rows[1][inside]] = dirs[inside]
+    return out
 
 
 def scan_pose(sonar: Sonar, renderer: CameraRenderer, true_pose: Pose, odometry_pose: Pose,
@@ -355,8 +504,31 @@ def scan_pose(sonar: Sonar, renderer: CameraRenderer, true_pose: Pose, odometry_
         points = odometry_pose.transform_points(scan.points_sensor).reshape(-1, 4, 3)
     accepted, residual = verify(points, settings.verify_threshold) if len(points) else \
         (np.zeros(0, bool), np.zeros(0))
+    fill = np.full((len(surfels), settings.max_fill, 3), np.nan)
+    pings = 4 * len(surfels)
+    if settings.max_fill and np.any(accepted):
+        f = camera.focal_pixels
+        fp = fill_pixels(surfels.vertices[accepted], f * np.tan(settings.fill_spacing),
+                         f * np.tan(settings.fill_margin), settings.max_fill)
+        measured = scan.points_sensor.reshape(-1, 4, 3)[accepted]
+        dirs = _fill_directions(camera, sonar.config.geometry, fp, measured)
+        aim = np.all(np.isfinite(dirs), axis=-1)
+        if np.any(aim):
+            second = sonar.scan(true_pose, dirs[aim],
+                                seed=int(np.random.SeedSequence([seed, 1]).generate_state(1)[0]))
+            got = np.full(dirs.shape, np.nan)
+            got[aim] = odometry_pose.transform_points(second.points_sensor)
+            # a fill echo off the surfel's plane by more than the verification threshold came
+            # from something else (an object in front, a side lobe): dropped
+            world = points[accepted]
+            for i in range(len(world)):
+                n, d = fit_plane(world[i])
+                far = np.abs(got[i] @ n - d) > settings.verify_threshold
+                got[i][far] = np.nan
+            fill[accepted] = got
+            pings += int(aim.sum())
     return PoseScan(odometry_pose, camera, box, segments, surfels.vertices, surfels.segment_pairs,
-                    points, residual, accepted, images.gray, 4 * len(surfels))
+                    points, residual, accepted, images.gray, pings, fill)
 
 
 # ---- regions and growing ----------------------------------------------------------------------
@@ -471,17 +643,17 @@ def grow_planes(scan: PoseScan, segments, groups: PlaneGroups, surfel_points, se
                     np.concatenate(plane).astype(int), regions, claims)
 
 
-def shadow_segments(scan: PoseScan, regions, claims, offset: float = 5.0,
-                    samples: int = 5) -> np.ndarray:
-    """(n,) True for segments of ``scan`` whose two sides lie on one plane (module docstring).
+def segment_sides(segments, regions, claims, offset: float = 5.0,
+                  samples: int = 5) -> tuple[np.ndarray, np.ndarray]:
+    """Plane group on each side (left (n,), right (n,); -1: undecided) of segments (n, 4).
 
     A side's plane is the single group claiming the region found ``offset`` [pixels] across the
     segment at ``samples`` points along it (majority over the points); regions claimed by none or
-    by several groups are undecided, and such a segment is kept.
+    by several groups are undecided.
     """
-    s = scan.segments
+    s = np.asarray(segments, dtype=float).reshape(-1, 4)
     if len(s) == 0 or claims.size == 0:
-        return np.zeros(len(s), dtype=bool)
+        return np.full(len(s), -1), np.full(len(s), -1)
     a, b = s[:, :2], s[:, 2:]
     d = (b - a) / np.maximum(np.linalg.norm(b - a, axis=1, keepdims=True), 1e-12)
     normal = np.stack([-d[:, 1], d[:, 0]], axis=-1)
@@ -499,8 +671,90 @@ def shadow_segments(scan: PoseScan, regions, claims, offset: float = 5.0,
         winner = np.argmax(votes, axis=1)
         return np.where(votes.max(axis=1) * 2 > samples, winner, -1)
 
-    left, right = side_plane(1.0), side_plane(-1.0)
+    return side_plane(1.0), side_plane(-1.0)
+
+
+def shadow_segments(scan: PoseScan, regions, claims, offset: float = 5.0,
+                    samples: int = 5) -> np.ndarray:
+    """(n,) True for segments of ``scan`` whose two sides lie on one plane (module docstring;
+    sides by :func:`segment_sides`); segments with an undecided side are kept."""
+    left, right = segment_sides(scan.segments, regions, claims, offset, samples)
     return (left >= 0) & (left == right)
+
+
+def _crease_residuals(normals, offsets, creases):
+    """Distances [pixels] (2 per crease) of the detected segment's ends from the image of the
+    line where its two planes meet; creases: list of (camera, world-from-camera pose, segment
+    (4,), group a, group b)."""
+    out = np.zeros(2 * len(creases))
+    for c, (camera, camera_pose, segment, ga, gb) in enumerate(creases):
+        line = np.cross(normals[ga], normals[gb])
+        norm = np.linalg.norm(line)
+        if norm < 1e-9:  # parallel planes: no crease
+            out[2 * c: 2 * c + 2] = 1e3
+            continue
+        line /= norm
+        o = camera_pose.translation
+        p0 = np.linalg.solve(np.array([normals[ga], normals[gb], line]),
+                             [offsets[ga], offsets[gb], line @ o])  # nearest to the camera
+        to_camera = camera_pose.inverse()
+        h = np.cross(to_camera.transform_points(p0[None])[0],
+                     to_camera.transform_vectors(line[None])[0])  # image line, normalised coords
+        f = camera.focal_pixels
+        uc, vc = camera.principal_point
+        ends = np.asarray(segment, float).reshape(2, 2)
+        xy = np.column_stack([(ends[:, 0] - uc) / f, (ends[:, 1] - vc) / f, np.ones(2)])
+        out[2 * c: 2 * c + 2] = f * (xy @ h) / max(np.hypot(h[0], h[1]), 1e-12)
+    return out
+
+
+def refine_planes(groups: PlaneGroups, points, label, viewpoints, creases,
+                  settings: SurfelSettings = SurfelSettings()) -> PlaneGroups:
+    """Planes fitted jointly to the sonar points and the image creases (module docstring).
+
+    Args:
+        groups: the least-squares groups (starting point and orientation).
+        points: (P, 3) measured points [m]; label: (P,) their group; viewpoints: (P, 3) the
+            sensor positions they were measured from [m].
+        creases: (camera, world-from-camera pose, segment (4,), group a, group b) of every
+            segment with a different plane on each side.
+    Minimises sum rho(r_i^2) over the point-to-plane distances / their expected error (from
+    ``range_sigma`` and ``angle_sigma`` at the incidence on the starting plane) and the
+    crease distances / ``crease_sigma`` (rho: soft L1, so a residual beyond about two sigmas
+    counts linearly: robust to the few echoes from elsewhere); creases whose residual on the
+    starting planes exceeds ``crease_gate`` pixels are left out.
+    """
+    from dataclasses import replace
+
+    from scipy.optimize import least_squares
+
+    n_groups = len(groups)
+    if n_groups == 0 or len(points) == 0:
+        return groups
+    start = _crease_residuals(groups.normals, groups.offsets, creases)
+    keep = [c for k, c in enumerate(creases)
+            if np.max(np.abs(start[2 * k: 2 * k + 2])) <= settings.crease_gate]
+
+    def unpack(x):
+        v = x.reshape(n_groups, 4)
+        return v[:, :3] / np.linalg.norm(v[:, :3], axis=1, keepdims=True), v[:, 3]
+
+    ray = points - viewpoints
+    r = np.linalg.norm(ray, axis=1)
+    sin = np.sqrt(np.clip(1 - (np.einsum("pc,pc->p", ray, groups.normals[label]) / r) ** 2, 0, 1))
+    sigma = np.hypot(settings.range_sigma, r * np.tan(settings.angle_sigma) * sin)
+
+    def residuals(x):
+        n, d = unpack(x)
+        r_points = (np.einsum("pc,pc->p", points, n[label]) - d[label]) / sigma
+        return np.concatenate([r_points,
+                               _crease_residuals(n, d, keep) / settings.crease_sigma])
+
+    x0 = np.column_stack([groups.normals, groups.offsets]).ravel()
+    n, d = unpack(least_squares(residuals, x0, loss="soft_l1", f_scale=2.0).x)
+    flip = np.where(np.einsum("gc,gc->g", n, groups.normals) < 0, -1.0, 1.0)
+    n, d = n * flip[:, None], d * flip
+    return replace(groups, normals=n, offsets=d)
 
 
 # ---- the map ----------------------------------------------------------------------------------
@@ -548,7 +802,7 @@ class SurfelMap:
 
 def _register(scans, shadow):
     """Registered surfels of all poses, minus those built on a shadow segment: pose (k,),
-    candidate index (k,), points (k, 4, 3), viewpoints (k, 3)."""
+    candidate index (k,), points (k, 4, 3), viewpoints (k, 3), fill points (k, m, 3)."""
     pose_ids, index = [], []
     for p, (scan, removed) in enumerate(zip(scans, shadow)):
         ok = scan.accepted.copy()
@@ -559,7 +813,12 @@ def _register(scans, shadow):
     pose_ids, index = np.concatenate(pose_ids).astype(int), np.concatenate(index).astype(int)
     points = np.array([scans[p].points_world[i] for p, i in zip(pose_ids, index)]).reshape(-1, 4, 3)
     view = np.array([scans[p].pose.translation for p in pose_ids]).reshape(-1, 3)
-    return pose_ids, index, points, view
+    m = max((s.fill_world.shape[1] for s in scans if s.fill_world is not None), default=0)
+    extra = np.full((len(pose_ids), m, 3), np.nan)
+    for k, (p, i) in enumerate(zip(pose_ids, index)):
+        if scans[p].fill_world is not None:
+            extra[k, :scans[p].fill_world.shape[1]] = scans[p].fill_world[i]
+    return pose_ids, index, points, view, extra
 
 
 def build_map(scans, settings: SurfelSettings = SurfelSettings()) -> SurfelMap:
@@ -567,9 +826,9 @@ def build_map(scans, settings: SurfelSettings = SurfelSettings()) -> SurfelMap:
     on the global planes and join the meshes (module docstring)."""
     shadow = [np.zeros(len(s.segments), dtype=bool) for s in scans]
     for _ in range(2):  # group, find shadow lines, then once more without them
-        pose_ids, index, points, view = _register(scans, shadow)
+        pose_ids, index, points, view, extra = _register(scans, shadow)
         groups = group_surfels(points, view, settings.merge_angle, settings.merge_distance,
-                               settings.max_iterations)
+                               settings.max_iterations, extra)
         meshes = [grow_planes(s, s.segments[~r], groups, points, settings)
                   for s, r in zip(scans, shadow)]
         found = [shadow_segments(replace_segments(s, ~r), m.regions, m.region_groups,
@@ -580,6 +839,24 @@ def build_map(scans, settings: SurfelSettings = SurfelSettings()) -> SurfelMap:
         if all(np.array_equal(a, b) for a, b in zip(new, shadow)):
             break
         shadow = new
+    if settings.refine and len(groups):
+        creases = []
+        for s, r, m in zip(scans, shadow, meshes):
+            segments = s.segments[~r]
+            left, right = segment_sides(segments, m.regions, m.region_groups,
+                                        settings.shadow_offset)
+            pose = s.camera.world_from_camera(s.pose)
+            creases += [(s.camera, pose, seg, a, b) for seg, a, b in zip(segments, left, right)
+                        if a >= 0 and b >= 0 and a != b]
+        every = np.concatenate([points.reshape(-1, 3), extra.reshape(-1, 3)])
+        label = np.concatenate([np.repeat(groups.label, 4),
+                                np.repeat(groups.label, extra.shape[1])])
+        seen = np.concatenate([np.repeat(view, 4, axis=0), np.repeat(view, extra.shape[1], axis=0)])
+        finite = np.all(np.isfinite(every), axis=1)
+        groups = refine_planes(groups, every[finite], label[finite], seen[finite], creases,
+                               settings)
+        meshes = [grow_planes(s, s.segments[~r], groups, points, settings)
+                  for s, r in zip(scans, shadow)]
     vertices, triangles, plane, offset = [], [], [], 0
     for m in meshes:
         vertices.append(m.vertices)
@@ -607,7 +884,7 @@ def replace_segments(scan: PoseScan, keep) -> PoseScan:
     return replace(scan, segments=scan.segments[np.asarray(keep, bool)],
                    segment_pairs=np.zeros((0, 2), int), triangles=np.zeros((0, 3, 2)),
                    points_world=np.zeros((0, 4, 3)), residual=np.zeros(0),
-                   accepted=np.zeros(0, bool))
+                   accepted=np.zeros(0, bool), fill_world=None)
 
 
 def _surfel_triangles(scans, pose_ids, index, groups: PlaneGroups) -> np.ndarray:
@@ -685,8 +962,7 @@ def save_surfel_figure(path, surfel_map: SurfelMap, points, plane, title: str = 
     Args:
         points: (M, 3) sampled map points [m]; plane: (M,) their plane group.
     """
-    from .io import atomic_path
-    from .plots import _pyplot
+    from .plots import _pyplot, save_png
 
     plt = _pyplot()
     colours = plane_colours(max(len(surfel_map.groups), 1))
@@ -724,9 +1000,7 @@ def save_surfel_figure(path, surfel_map: SurfelMap, points, plane, title: str = 
     ax_img.axis("off")
     fig.suptitle(title)
     fig.tight_layout()
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp, dpi=110, format="png")
-    plt.close(fig)
+    save_png(fig, path)
 
 
 def save_surfel_map(out_dir, surfel_map: SurfelMap, spacing: float = 0.01, title: str = ""):
@@ -751,11 +1025,13 @@ def add_cli(map_subparsers) -> None:
     """``mitsonar map surfel`` (added to the ``map`` command of :mod:`mitsonar.mapping`)."""
     s = map_subparsers.add_parser(
         "surfel", help="surfel scanning into a plane mesh (paper III-D)",
-        description="Along the scene's default trajectory: camera lines -> triangle surfels -> "
+        description="Along a trajectory: camera lines -> triangle surfels -> "
                     "4 pings each -> verified surfels -> plane groups -> planes grown between "
                     "the image lines; scored against the scene's ground truth.")
     s.add_argument("scene", type=Path)
     s.add_argument("--out", type=Path, required=True)
+    s.add_argument("--trajectory", type=Path, default=None,
+                   help="trajectory JSON (as for `map repeated`; default: the scene's own)")
     s.add_argument("--frames", type=int, default=5, help="poses spread evenly over the trajectory")
     s.add_argument("--width", type=int, default=400, help="camera image width [pixels]")
     s.add_argument("--spp", type=int, default=32, help="camera samples per pixel")
@@ -777,7 +1053,8 @@ def _run_surfel(args) -> int:
 
     if args.frames < 1:
         raise ValueError(f"--frames must be >= 1, got {args.frames}")
-    trajectory = Trajectory.from_scene(args.scene)
+    trajectory = Trajectory.from_file(args.trajectory) if args.trajectory \
+        else Trajectory.from_scene(args.scene)
     poses = sensor_poses(trajectory.poses_at(np.linspace(0.0, trajectory.duration, args.frames)))
     settings = SurfelSettings(image_width=args.width, spp=args.spp, seed=args.seed)
     sonar = Sonar(args.scene, SonarConfig.preset(args.preset))

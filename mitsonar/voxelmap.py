@@ -39,7 +39,8 @@ import numpy as np
 
 from .camera import CameraModel
 from .frames import Pose
-from .io import atomic_path, write_ply
+from .io import write_ply
+from .plots import save_png
 from .validation import check_finite, check_positive
 
 #: Colour given to voxels without any coloured point when a format needs one (Open3D, PLY, PNG).
@@ -496,6 +497,4 @@ def save_voxel_figure(path, voxels: VoxelCloud, sensor_positions=None, title: st
                f"colour (grey)")
     fig.suptitle(f"{title}\n{summary}" if title else summary)
     fig.tight_layout()
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp, dpi=110, format="png")
-    plt.close(fig)
+    save_png(fig, path)
