@@ -106,7 +106,8 @@ def detect_segments(gray, box=None, min_length: float = 50.0, *,
                     distance_tolerance: float = MERGE_DISTANCE,
                     gap_tolerance: float = MERGE_GAP, blur_sigma: float = 1.0,
                     fld_length: int = 10, fld_distance: float = 1.414,
-                    canny_low: float = 50.0, canny_high: float = 50.0) -> np.ndarray:
+                    canny_low: float = 50.0, canny_high: float = 50.0,
+                    context: int = 8) -> np.ndarray:
     """Line segments (n, 4) [u1, v1, u2, v2] [pixels, full-image coordinates] of a gray image.
 
     Runs OpenCV's Fast Line Detector on ``gray[v0:v1, u0:u1]`` (``box`` from
@@ -128,14 +129,24 @@ def detect_segments(gray, box=None, min_length: float = 50.0, *,
         canny_low, canny_high: FLD's Canny hysteresis thresholds on the 3x3 Sobel gradient
             |g_u| + |g_v|: a sharp step edge of d grey levels gives 4 d (2.6 d after the 1 px
             blur, 1.5 d after 2 px), so 50 passes steps above 13 (19, 33) grey levels.
+        context: FLD runs on the box grown by this many pixels on each side (within the
+            image) and the segments are clipped back to the box: the blur, the Sobel kernel and
+            FLD's own end handling stop edges several pixels short of the border of the image
+            they see, and a crease that stops short of the box edge leaves a gap through which
+            the regions of :func:`mitsonar.surfels.region_labels` leak.
     FLD's own merging is off: :func:`merge_collinear` does it with stated tolerances.
     """
     import cv2
 
     image = _as_uint8(gray)
-    u0, v0, u1, v1 = _check_box(box, image.shape)
+    box = _check_box(box, image.shape)
     check_positive("min_length [pixels]", min_length)
     check_range("blur_sigma [pixels]", blur_sigma, 0.0, np.inf)
+    if int(context) != context or context < 0:
+        raise ValueError(f"context must be an integer >= 0 [pixels], got {context}")
+    h, w = image.shape
+    u0, v0 = max(box[0] - context, 0), max(box[1] - context, 0)
+    u1, v1 = min(box[2] + context, w), min(box[3] + context, h)
     crop = np.ascontiguousarray(image[v0:v1, u0:u1])
     if blur_sigma > 0:
         crop = cv2.GaussianBlur(crop, (0, 0), blur_sigma)
@@ -146,9 +157,28 @@ def detect_segments(gray, box=None, min_length: float = 50.0, *,
         return np.zeros((0, 4))
     segments = found.reshape(-1, 4).astype(float) + OPENCV_TO_PIXEL
     segments += np.array([u0, v0, u0, v0], dtype=float)
+    segments = clip_segments(segments, box)
     merged = merge_collinear(segments, angle_tolerance, distance_tolerance, gap_tolerance)
     lengths = np.hypot(merged[:, 2] - merged[:, 0], merged[:, 3] - merged[:, 1])
     return merged[lengths >= min_length]
+
+
+def clip_segments(segments, box) -> np.ndarray:
+    """Parts (m, 4) of segments (n, 4) [pixels] inside the box (u0, v0, u1, v1) [pixels]
+    (Liang-Barsky); segments entirely outside (or touching it in a point) are dropped."""
+    s = _check_segments(segments)
+    a, d = s[:, :2], s[:, 2:] - s[:, :2]
+    lo, hi = np.asarray(box[:2], float), np.asarray(box[2:], float)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t_lo, t_hi = (lo - a) / d, (hi - a) / d  # (n, 2) where each axis crosses each side
+    flat = d == 0  # parallel to a side: inside for all t or for none
+    enter = np.where(flat, np.where((a >= lo) & (a <= hi), 0.0, np.inf), np.minimum(t_lo, t_hi))
+    leave = np.where(flat, np.where((a >= lo) & (a <= hi), 1.0, -np.inf), np.maximum(t_lo, t_hi))
+    t0 = np.maximum(enter.max(axis=1), 0.0)
+    t1 = np.minimum(leave.min(axis=1), 1.0)
+    keep = t1 > t0
+    t0, t1 = t0[keep, None], t1[keep, None]
+    return np.concatenate([a[keep] + t0 * d[keep], a[keep] + t1 * d[keep]], axis=1)
 
 
 def _segment_frames(s: np.ndarray):

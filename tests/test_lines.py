@@ -9,8 +9,8 @@ import mitsonar
 from mitsonar.array import ArrayGeometry
 from mitsonar.camera import CameraModel, CameraRenderer
 from mitsonar.frames import direction_from_angles, fov_angles
-from mitsonar.lines import (_angle_neighbours, detect_segments, fov_crop_box, merge_collinear,
-                            scan_directions, scan_pixels, triangle_surfels)
+from mitsonar.lines import (_angle_neighbours, clip_segments, detect_segments, fov_crop_box,
+                            merge_collinear, scan_directions, scan_pixels, triangle_surfels)
 from conftest import IDENTITY
 
 CAMERA = CameraModel()
@@ -288,3 +288,17 @@ def test_rendered_room_corner_gives_its_three_creases(scene_file):
     quads = np.floor(scan_pixels(surfels.vertices)).astype(int)
     faces = images.shape_index[quads[..., 1], quads[..., 0]]  # (3 surfels, 4 points)
     assert np.all(faces == faces[:, :1]) and sorted(faces[:, 0]) == [0, 1, 2]
+
+
+def test_segments_are_clipped_to_the_box_and_reach_its_edges():
+    """Clipping keeps the inside part (crossing, inside, along a side), drops the outside ones;
+    an edge running off the crop is detected up to the crop's border (FLD sees 8 px beyond it),
+    not a few pixels short of it."""
+    clipped = clip_segments([[0, 5, 20, 5], [5, -5, 5, 25], [30, 30, 40, 40], [2, 2, 8, 8],
+                             [15, 0, 15, 20]], (1, 0, 10, 10))
+    np.testing.assert_allclose(clipped, [[1, 5, 10, 5], [5, 0, 5, 10], [2, 2, 8, 8]])
+    img = np.full((200, 300), 60, np.uint8)
+    img[100:] = 200  # a horizontal step across the whole image
+    segments = detect_segments(img, (20, 20, 280, 180))
+    assert len(segments) == 1
+    np.testing.assert_allclose(segments[0, [0, 2]], [20, 280], atol=0.01)
