@@ -45,19 +45,21 @@ def wall_scene(directory: Path, name: str, material: str, incidence: float = 0.0
     return path
 
 
-def ping(path: Path, seed: int = 0):
-    return mitsonar.Sonar(path).ping(mitsonar.Pose.identity(), BROADSIDE, seed=seed).detection
+def pings(path: Path, seeds=(0,)) -> list:
+    """Detections of broadside pings at the wall of scene ``path``, one per seed (scene loaded once)."""
+    sonar = mitsonar.Sonar(path)
+    return [sonar.ping(mitsonar.Pose.identity(), BROADSIDE, seed=seed).detection for seed in seeds]
 
 
 def impedance_sweep(tmp: Path, impedances) -> list[dict]:
-    rigid = ping(wall_scene(tmp, "rigid", '<float name="impedance" value="1e12"/>'
-                                          '<float name="scattering" value="0"/>')).amplitude
+    rigid = pings(wall_scene(tmp, "rigid", '<float name="impedance" value="1e12"/>'
+                                           '<float name="scattering" value="0"/>'))[0].amplitude
     z_air = mitsonar.Medium().impedance
     rows = []
     for label, z in [(f"{z:.3g} Rayl", z) for z in impedances] + [
             (p, preset(p).normal_impedance(z_air)) for p in PRESETS]:
-        det = ping(wall_scene(tmp, "z", f'<float name="impedance" value="{z}"/>'
-                                        '<float name="scattering" value="0"/>'))
+        det = pings(wall_scene(tmp, "z", f'<float name="impedance" value="{z}"/>'
+                                         '<float name="scattering" value="0"/>'))[0]
         rows.append({"material": label, "impedance_rayl": z,
                      "energy_reflection_measured": (det.amplitude / rigid) ** 2,
                      "energy_reflection_eq4": ((z - z_air) / (z + z_air)) ** 2,
@@ -71,7 +73,7 @@ def incidence_sweep(tmp: Path, angles, seeds) -> list[dict]:
         normal = None
         for angle in angles:
             path = wall_scene(tmp, name, f'<string name="preset" value="{name}"/>', angle)
-            dets = [ping(path, seed) for seed in seeds]
+            dets = pings(path, seeds)
             level = float(np.mean([d.amplitude for d in dets]))
             normal = level if normal is None else normal
             depth = np.array([d.depth for d in dets])

@@ -105,15 +105,13 @@ class FidelityRun:
 
 
 def ping_at(scene, config: SonarConfig, level: Fidelity, poses, directions, seed: int = 0) -> FidelityRun:
-    """Ping every direction (B, 3) from every pose at one level (one :class:`Sonar` for all; the
+    """Scan the directions (B, 3) from every pose at one level (one :class:`Sonar` for all; the
     scene is loaded once by the caller). Depths are (len(poses) * B,), pose-major."""
     sonar = Sonar(scene, level.apply(config))
     sonar.ping(poses[0], directions[0], seed=seed)  # compile the kernels outside the timing
-    depth, start = [], time.perf_counter()
-    for pose in poses:
-        depth += [sonar.ping(pose, u, seed=seed).detection.depth for u in directions]
-    seconds = (time.perf_counter() - start) / len(depth)
-    return FidelityRun(level, np.array(depth), seconds)
+    start = time.perf_counter()
+    depth = np.concatenate([sonar.scan(pose, directions, seed=seed).depth for pose in poses])
+    return FidelityRun(level, depth, (time.perf_counter() - start) / len(depth))
 
 
 def choose_fidelity(scene, poses, directions, config: SonarConfig | None = None,

@@ -21,7 +21,7 @@ from .camera import CameraModel, CameraRenderer
 from .frames import Pose
 from .ofdm import Frame, OfdmSonar, pose_along
 from .sonar import Sonar, SonarConfig
-from .trajectory import Trajectory
+from .trajectory import Trajectory, add_trajectory_argument, trajectory_from_args
 from .validation import check_positive
 from .voxelmap import VoxelMap, VoxelMapSettings, colourise, save_voxel_figure, save_voxel_ply
 
@@ -121,9 +121,7 @@ def add_cli(subparsers) -> None:
                                    "voxelise them.")
     r.add_argument("scene", type=Path)
     r.add_argument("--out", type=Path, required=True)
-    r.add_argument("--trajectory", type=Path, default=None,
-                   help="trajectory JSON ({'waypoints': [[x_m, y_m, yaw_deg], ...], 'speed_m_s', "
-                        "'yaw_rate_deg_s'}; default: the one in the scene's ground_truth.json)")
+    add_trajectory_argument(r)
     r.add_argument("--frames", type=int, default=5)
     r.add_argument("--step", type=float, default=5.0, help="beam grid step [deg] (default 5)")
     r.add_argument("--voxel", type=float, default=0.05, help="voxel size [m] (default 0.05)")
@@ -150,8 +148,7 @@ def _run_repeated(args) -> int:
     config = SonarConfig.preset(args.preset)
     if args.broadband:
         config = replace(config, transducer=Transducer(bandwidth_6db=20e3))
-    trajectory = Trajectory.from_file(args.trajectory) if args.trajectory \
-        else Trajectory.from_scene(args.scene)
+    trajectory = trajectory_from_args(args)
     if args.speed is not None:
         trajectory = replace(trajectory, speed=args.speed)
     spec = RepeatedMapSpec(frames=args.frames, scan_step=np.radians(args.step),

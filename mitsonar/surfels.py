@@ -108,6 +108,7 @@ from .camera import CameraModel, CameraRenderer
 from .frames import Pose
 from .lines import detect_segments, fov_crop_box, scan_directions, scan_pixels, triangle_surfels
 from .sonar import Sonar
+from .trajectory import add_trajectory_argument, sensor_poses, trajectory_from_args
 from .validation import check_positive, check_range
 
 #: Why surfels were not registered (keys of :attr:`SurfelMap.rejected`).
@@ -1115,8 +1116,7 @@ def add_cli(map_subparsers) -> None:
                     "the image lines; scored against the scene's ground truth.")
     s.add_argument("scene", type=Path)
     s.add_argument("--out", type=Path, required=True)
-    s.add_argument("--trajectory", type=Path, default=None,
-                   help="trajectory JSON (as for `map repeated`; default: the scene's own)")
+    add_trajectory_argument(s)
     s.add_argument("--frames", type=int, default=5, help="poses spread evenly over the trajectory")
     s.add_argument("--width", type=int, default=400, help="camera image width [pixels]")
     s.add_argument("--spp", type=int, default=32, help="camera samples per pixel")
@@ -1134,12 +1134,10 @@ def _run_surfel(args) -> int:
     from .metrics import evaluate
     from .scene import scene_mesh
     from .sonar import SonarConfig
-    from .trajectory import Trajectory, sensor_poses
 
     if args.frames < 1:
         raise ValueError(f"--frames must be >= 1, got {args.frames}")
-    trajectory = Trajectory.from_file(args.trajectory) if args.trajectory \
-        else Trajectory.from_scene(args.scene)
+    trajectory = trajectory_from_args(args)
     poses = sensor_poses(trajectory.poses_at(np.linspace(0.0, trajectory.duration, args.frames)))
     settings = SurfelSettings(image_width=args.width, spp=args.spp, seed=args.seed)
     sonar = Sonar(args.scene, SonarConfig.preset(args.preset))
