@@ -284,7 +284,8 @@ class OfdmSonar:
         cfg = sonar.config
         duration = PRE_ROLL + len(self.codes) * self.codes[0].slot + listen
         self.synth = EchoSynthesizer(cfg.pulse, cfg.transducer, cfg.sample_rate, -PRE_ROLL, duration,
-                                     cfg.transducer_response, waveforms=self.codes)
+                                     cfg.transducer_response,
+                                     waveforms=self.codes + tuple(t for c in self.codes for t in c.parts))
         from .processing import EchoProcessor
 
         self.processor = EchoProcessor(cfg.geometry, self.synth, cfg.medium.speed_of_sound,
@@ -327,20 +328,21 @@ class OfdmSonar:
         t0 = schedule.cycle_start[schedule.cycle[beams[0]]]
         offsets = schedule.transmit_time[beams] - t0  # firing times within the cycle
         codes = [schedule.codes[k] for k in schedule.code_index[beams]]
-        poses, echo_groups, direct_groups = [], [], []
+        poses, echo_spectra, direct_spectra = [], [], []
         for b, offset, code in zip(beams, offsets, codes):  # beams of a cycle, each vectorised
             pose = pose_at(start_time + schedule.transmit_time[b])
             poses.append(pose.matrix())
             u = schedule.directions[b]
             paths = sonar.tracer.trace(pose, u, seed=_seed(seed, b)).paths
-            echo_groups.append((_shifted(paths, offset), code))
-            direct_groups.append((_shifted(sonar.tracer.direct_paths(u), offset), code))
-        spectra = [self.synth.group_spectrum(p, w, n_rx) for p, w in echo_groups + direct_groups]
-        k = len(beams)
-        total = np.sum(spectra, axis=0)
+            groups = [(_shifted(p, offset), w) for p, w in sonar.echo_groups(paths, code, self.synth)]
+            echo_spectra.append(self.synth.groups_spectrum(groups, n_rx))
+            direct_spectra.append(self.synth.group_spectrum(
+                _shifted(sonar.tracer.direct_paths(u), offset), code, n_rx))
+        direct_total = np.sum(direct_spectra, axis=0)
+        total = np.sum(echo_spectra, axis=0) + direct_total
         rec = self.synth.recording(self.synth.to_analytic(total), sonar.config.noise_rms,
                                    seed=_seed(seed, int(beams[0]), _NOISE_STREAM))
-        direct = self.synth.recording(self.synth.to_analytic(np.sum(spectra[k:], axis=0)))
+        direct = self.synth.recording(self.synth.to_analytic(direct_total))
         out = {key: [] for key in ("detected", "depth", "amplitude", "points", "crosstalk")}
         max_path = 2.0 * sonar.config.max_range  # the listening window of every code
         for i, (b, offset, code) in enumerate(zip(beams, offsets, codes)):
@@ -353,7 +355,7 @@ class OfdmSonar:
             out["amplitude"].append(det.amplitude)
             out["points"].append(det.point)
             if det.detected:
-                others = self.synth.recording(self.synth.to_analytic(total - spectra[i]))
+                others = self.synth.recording(self.synth.to_analytic(total - echo_spectra[i]))
                 leak = self.processor.envelope(others, u, code)
                 window = np.abs(rec.times - offset - det.time_of_arrival) < 2 * code.slot
                 out["crosstalk"].append(20 * np.log10(max(leak[window].max(), 1e-30) / det.amplitude))
@@ -364,7 +366,7 @@ class OfdmSonar:
 
 
 def _shifted(paths: Paths, offset: float) -> Paths:
-    return Paths(paths.gain, paths.delay + offset, paths.channel)
+    return Paths(paths.gain, paths.delay + offset, paths.channel, paths.elements)
 
 
 _NOISE_STREAM = 1_000_003  # separates the noise seeds from the per-beam trace seeds

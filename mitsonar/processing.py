@@ -178,23 +178,23 @@ class EchoProcessor:
         dirs = direction_from_fov_angles(hh, vv).reshape(-1, 3)
         return dirs[dirs @ direction < np.cos(self.settings.ghost_exclusion)]
 
-    def _arrives_off_beam(self, channels, start_time, k, direction, ghost_dirs, carrier) -> bool:
-        """True if, at sample k, some receive direction outside the main lobe is ``ghost_margin``
-        times stronger than the beam (narrow-band delays on the demodulated channels)."""
+    def _arrives_off_beam(self, channels, start_time, candidates, direction, ghost_dirs,
+                          carrier) -> np.ndarray:
+        """(C,) True where, at candidate sample k, some receive direction outside the main lobe
+        is ``ghost_margin`` times stronger than the beam: narrow-band delay-and-sum of the
+        demodulated channels (N_rx, N), linearly interpolated, over all candidates at once."""
         fs = self.synth.sample_rate
         w0 = 2 * np.pi * carrier
-        dirs = np.concatenate([direction[None], ghost_dirs])
-        t = start_time + (k + self.receive_delays(dirs) * fs) / fs  # (D, N_rx) read times
-        q = (t - start_time) * fs
-        i0 = np.clip(np.floor(q).astype(np.int64), 0, channels.shape[1] - 2)
+        n = channels.shape[1]
+        baseband = channels * np.exp(-1j * w0 * (start_time + np.arange(n) / fs))
+        delays = self.receive_delays(np.concatenate([direction[None], ghost_dirs]))  # (D, N_rx)
+        q = np.asarray(candidates, dtype=float)[:, None, None] + delays[None] * fs  # (C, D, N_rx)
+        i0 = np.clip(np.floor(q).astype(np.int64), 0, n - 2)
         frac = q - i0
-        rows = np.arange(channels.shape[0])[None, :]
-        t0 = start_time + i0 / fs
-        base0 = channels[rows, i0] * np.exp(-1j * w0 * t0)
-        base1 = channels[rows, i0 + 1] * np.exp(-1j * w0 * (t0 + 1 / fs))
-        values = ((1 - frac) * base0 + frac * base1) * np.exp(1j * w0 * t)
-        power = np.abs(values.mean(axis=1))
-        return bool(power[1:].max(initial=0.0) > self.settings.ghost_margin * power[0])
+        rows = np.arange(channels.shape[0])
+        values = (1 - frac) * baseband[rows, i0] + frac * baseband[rows, i0 + 1]
+        power = np.abs(np.einsum("cdj,dj->cd", values, np.exp(1j * w0 * delays)))
+        return power[:, 1:].max(axis=1, initial=0.0) > self.settings.ghost_margin * power[:, 0]
 
     def process(self, recording: Recording, direction, direct_envelope: np.ndarray | None = None,
                 waveform=None, transmit_time: float = 0.0, max_path_length: float | None = None):
@@ -272,9 +272,11 @@ class EchoProcessor:
         nan3 = np.full(3, np.nan)
         if len(candidates) and len(looks) and s.ghost_margin > 0:
             ghost_dirs = self._ghost_directions(u)
-            channels = [(sfft.ifft(x, axis=-1)[:, :n], carrier) for x, carrier in looks]
-            candidates = [k for k in candidates if not any(self._arrives_off_beam(
-                c, start_time, k, u, ghost_dirs, carrier) for c, carrier in channels)][:1]
+            off_beam = np.zeros(len(candidates), bool)
+            for spectra, carrier in looks:  # a candidate must pass in every look
+                off_beam |= self._arrives_off_beam(sfft.ifft(spectra, axis=-1)[:, :n], start_time,
+                                                   candidates, u, ghost_dirs, carrier)
+            candidates = candidates[~off_beam][:1]
         if len(candidates) == 0:
             return Detection(False, np.nan, np.nan, np.nan, nan3, amplitude, level)
         k = int(candidates[0])

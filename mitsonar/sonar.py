@@ -48,6 +48,13 @@ class SonarConfig:
         max_range: farthest depth recorded [m].
         noise_rms: receiver noise per sample [Pa].
         transducer_response: apply the resonant transmit and receive responses.
+        narrowband_bandwidth: when the transducers' -6 dB bandwidth is at most this [Hz], each
+            hit's transmit elements are merged into one path per receive channel before synthesis
+            (:meth:`~mitsonar.synthesis.Paths.narrowband`, N_tx / 2 times fewer paths): the
+            resonance then confines every echo, whatever the drive, to a narrow band around it.
+            The error is second order in bandwidth x delay spread; measured in the tests for the
+            TCT40 class: < 1 % of the peak for the pulse, < 8 % for OFDM tones. 0 (or ideal
+            transducers) synthesises every element pair exactly.
     """
 
     medium: Medium = field(default_factory=Medium)
@@ -60,10 +67,14 @@ class SonarConfig:
     max_range: float = 5.0
     noise_rms: float = 1e-3
     transducer_response: bool = True
+    narrowband_bandwidth: float = 5000.0
 
     def __post_init__(self):
         check_positive("SonarConfig.sample_rate [Hz]", self.sample_rate)
         check_positive("SonarConfig.max_range [m]", self.max_range)
+        if not self.narrowband_bandwidth >= 0:
+            raise ValueError(f"SonarConfig.narrowband_bandwidth [Hz] must be >= 0, "
+                             f"got {self.narrowband_bandwidth}")
         if not (np.isfinite(self.noise_rms) and self.noise_rms >= 0):
             raise ValueError(f"SonarConfig.noise_rms [Pa] must be >= 0, got {self.noise_rms}")
         if self.sample_rate < 4 * self.pulse.frequency:
@@ -228,8 +239,9 @@ class Sonar:
         n_rx = self.config.geometry.rx.count
         trace = self.tracer.trace(pose, u, seed=seed)
         direct = self.tracer.direct_paths(u)
-        recording = self.synthesizer.synthesize(Paths.concatenate([trace.paths, direct]), n_rx,
-                                                self.config.noise_rms, seed=[seed, 1])
+        groups = self.echo_groups(trace.paths, self.config.pulse) + [(direct, self.config.pulse)]
+        recording = self.synthesizer.recording(self.synthesizer.analytic_sum(groups, n_rx),
+                                               self.config.noise_rms, seed=[seed, 1])
         key = tuple(np.round(u, 12))
         if key not in self._direct_envelopes:  # depends on the direction only: computed once
             self._direct_envelopes[key] = self.processor.envelope(
@@ -237,6 +249,15 @@ class Sonar:
         direct_envelope = self._direct_envelopes[key]
         envelope, detection = self.processor.process(recording, u, direct_envelope)
         return Ping(u, trace, recording, envelope, direct_envelope, detection)
+
+    def echo_groups(self, paths: Paths, waveform, synthesizer: EchoSynthesizer | None = None) -> list:
+        """(paths, waveform) groups to synthesise the traced ``paths`` driven by ``waveform`` with
+        ``synthesizer`` (default: this sonar's), transmit elements merged behind narrow-band
+        transducers (see ``config.narrowband_bandwidth``)."""
+        cfg = self.config
+        if cfg.transducer_response and cfg.transducer.bandwidth_6db <= cfg.narrowband_bandwidth:
+            return (synthesizer or self.synthesizer).narrowband_groups(paths, waveform)
+        return [(paths, waveform)]
 
     def scan(self, pose: Pose, directions, seed: int = 0, progress=None) -> Scan:
         """Ping every direction (B, 3) from one pose; ``progress`` is called with each index.

@@ -32,16 +32,50 @@ class Paths:
         gain: (M,) complex gain [Pa] applied to the analytic drive waveform.
         delay: (M,) delay from the virtual firing of the transmit origin [s].
         channel: (M,) receive element index.
+        elements: (N_tx, N_rx) when the paths come in per-hit blocks, ordered (hit, transmit
+            element, receive element), which :meth:`narrowband` can merge; None otherwise.
     """
 
     gain: np.ndarray
     delay: np.ndarray
     channel: np.ndarray
+    elements: tuple[int, int] | None = None
 
     def __post_init__(self):
         n = len(self.gain)
         if len(self.delay) != n or len(self.channel) != n:
             raise ValueError("Paths: gain, delay and channel must have the same length")
+        if self.elements is not None and n % (self.elements[0] * self.elements[1]):
+            raise ValueError(f"Paths: {n} paths are not whole blocks of {self.elements} elements")
+
+    def narrowband(self, frequency: float) -> tuple["Paths", "Paths"]:
+        """Each hit's transmit elements merged into one path per receive channel, about
+        ``frequency`` [Hz]: (merged paths, their first-order companions).
+
+        With tau_i = tau_c + delta_i (tau_c the |gain|-weighted mean delay of the elements), the
+        elements' spectrum is W(f) exp(-j 2 pi f tau_c) sum_i c_i exp(-j 2 pi (f - f0) delta_i),
+        c_i = a_i exp(-j 2 pi f0 delta_i); to first order in (f - f0) delta_i it is
+        W(f) exp(-j 2 pi f tau_c) [A - j 2 pi (f - f0) B], A = sum_i c_i, B = sum_i c_i delta_i.
+        The merged paths carry A, the companions B (drive them with :class:`Detuned`). Exact at
+        f0; the remaining error is second order in the delay spread (aperture and steering, up
+        to ~0.1 ms) times the bandwidth. Paths without per-hit blocks: (self, no paths).
+        """
+        if self.elements is None:
+            return self, Paths(np.zeros(0, complex), np.zeros(0), np.zeros(0, int))
+        n_tx, n_rx = self.elements
+        gain = self.gain.reshape(-1, n_tx, n_rx)
+        delay = self.delay.reshape(-1, n_tx, n_rx)
+        weight = np.abs(gain)
+        total = weight.sum(axis=1)
+        centre = np.where(total > 0, np.einsum("hij,hij->hj", weight, delay)
+                          / np.where(total > 0, total, 1.0), delay.mean(axis=1))
+        offset = delay - centre[:, None, :]
+        # Phases of at most ~60 rad: single precision keeps them within 1e-5 rad, 10x faster.
+        angle = (2 * np.pi * frequency * offset).astype(np.float32)
+        c = gain * (np.cos(angle) - 1j * np.sin(angle))
+        channel = self.channel.reshape(-1, n_tx, n_rx)[:, 0, :].ravel()
+        return (Paths(c.sum(axis=1).ravel(), centre.ravel(), channel),
+                Paths(np.einsum("hij,hij->hj", c, offset).ravel(), centre.ravel(), channel))
 
     @classmethod
     def from_factors(cls, tx_gain, tx_delay, rx_gain, rx_delay, mid_gain=None) -> "Paths":
@@ -62,16 +96,40 @@ class Paths:
             gain = gain * (mid_gain[:, None, None] if mid_gain.ndim == 1 else mid_gain)
         delay = np.asarray(tx_delay)[:, :, None] + np.asarray(rx_delay)[:, None, :]
         channel = np.broadcast_to(np.arange(n_rx), (h, n_tx, n_rx))
-        return cls(gain.ravel(), delay.ravel(), channel.ravel())
+        return cls(gain.ravel(), delay.ravel(), channel.ravel(), (n_tx, n_rx))
 
     @classmethod
     def concatenate(cls, parts) -> "Paths":
+        """All paths of ``parts``; per-hit blocks are kept when every part has the same ones."""
         parts = list(parts)
+        blocks = {p.elements for p in parts}
         return cls(np.concatenate([p.gain for p in parts]), np.concatenate([p.delay for p in parts]),
-                   np.concatenate([p.channel for p in parts]))
+                   np.concatenate([p.channel for p in parts]),
+                   blocks.pop() if len(blocks) == 1 else None)
 
     def __len__(self) -> int:
         return len(self.gain)
+
+
+@dataclass(frozen=True)
+class Detuned:
+    """The drive ``waveform`` with its spectrum times -j 2 pi (f - ``carrier``) [Hz]: the
+    first-order term of narrow-band merging (:meth:`Paths.narrowband`)."""
+
+    waveform: object
+    carrier: float
+
+    @property
+    def duration(self) -> float:
+        return self.waveform.duration
+
+    @property
+    def frequency(self) -> float:
+        return self.carrier
+
+    def spectrum(self, frequency) -> np.ndarray:
+        f = np.asarray(frequency, dtype=float)
+        return -2j * np.pi * (f - self.carrier) * self.waveform.spectrum(f)
 
 
 @dataclass(frozen=True)
@@ -150,6 +208,9 @@ class EchoSynthesizer:
         """Analytic spectrum W(f) of the expected echo of a unit path (drive x H_tx x H_rx) on
         the FFT grid, scaled per sample; zero outside the band. Cached per waveform."""
         waveform = self.pulse if waveform is None else waveform
+        if waveform not in self._spectra and isinstance(waveform, Detuned):
+            self._spectra[waveform] = -2j * np.pi * (self._freq - waveform.carrier) \
+                * self.system_spectrum(waveform.waveform)
         if waveform not in self._spectra:
             f = self._freq
             positive = f > 0
@@ -160,6 +221,24 @@ class EchoSynthesizer:
             band = (np.abs(w) > self.band_threshold * np.abs(w).max()) & (np.abs(f) < 0.4 * self.sample_rate)
             self._spectra[waveform] = np.where(band, w, 0.0)
         return self._spectra[waveform]
+
+    def band_moments(self, waveform=None) -> tuple[float, float]:
+        """Centre (power-weighted mean) and rms bandwidth [Hz] of the system spectrum of
+        ``waveform``: what the receiver records, the drive through both transducer responses."""
+        power = np.abs(self.system_spectrum(waveform)) ** 2
+        centre = float(np.sum(self._freq * power) / np.sum(power))
+        return centre, float(np.sqrt(np.sum((self._freq - centre) ** 2 * power) / np.sum(power)))
+
+    def narrowband_groups(self, paths: Paths, waveform=None) -> list:
+        """(paths, waveform) groups that synthesise ``paths`` driven by ``waveform`` with each
+        hit's transmit elements merged (:meth:`Paths.narrowband`) about the recorded centre
+        frequency of each tone of the waveform (an OFDM code's ``parts``, else itself)."""
+        groups = []
+        for tone in getattr(waveform or self.pulse, "parts", (waveform or self.pulse,)):
+            centre = self.band_moments(tone)[0]
+            merged, first_order = paths.narrowband(centre)
+            groups += [(merged, tone), (first_order, Detuned(tone, centre))]
+        return groups
 
     def impulse_grid(self, paths: Paths, n_channels: int) -> np.ndarray:
         """Spread paths onto the (n_channels, n_fft) sample grid with the Gaussian kernel.
@@ -207,14 +286,31 @@ class EchoSynthesizer:
         return self.analytic_sum([(paths, waveform)], n_channels)
 
     def analytic_sum(self, groups, n_channels: int) -> np.ndarray:
-        """Analytic recording of several path sets, each with its own waveform: [(paths, waveform)]."""
-        return self.to_analytic(sum(self.group_spectrum(p, w, n_channels) for p, w in groups))
+        """Analytic recording of several path sets, each with its own waveform: [(paths, waveform)].
+        Groups sharing a waveform are synthesised together."""
+        return self.to_analytic(self.groups_spectrum(groups, n_channels))
+
+    def groups_spectrum(self, groups, n_channels: int) -> np.ndarray:
+        """Summed analytic spectrum (n_channels, n_fft) of [(paths, waveform)] groups; spectra of
+        several calls add up to their joint recording (see :meth:`to_analytic`).
+
+        All groups go onto one impulse grid with a block of channels per distinct waveform (one
+        kernel launch), transformed by one batched FFT.
+        """
+        by_waveform: dict = {}
+        for paths, waveform in groups:
+            by_waveform.setdefault(self.pulse if waveform is None else waveform, []).append(paths)
+        waveforms = list(by_waveform)
+        stacked = Paths.concatenate([Paths(p.gain, p.delay, p.channel + k * n_channels)
+                                     for k, w in enumerate(waveforms) for p in by_waveform[w]])
+        grid = self.impulse_grid(stacked, len(waveforms) * n_channels)
+        spectra = sfft.fft(grid, axis=-1).reshape(len(waveforms), n_channels, self.n_fft)
+        filters = np.stack([self.system_spectrum(w) for w in waveforms]) / self._kernel_ft
+        return np.einsum("wcf,wf->cf", spectra, filters)
 
     def group_spectrum(self, paths: Paths, waveform, n_channels: int) -> np.ndarray:
-        """Analytic spectrum (n_channels, n_fft) of the echoes of ``paths`` driven by ``waveform``;
-        spectra of several groups add up to their joint recording (see :meth:`to_analytic`)."""
-        return sfft.fft(self.impulse_grid(paths, n_channels), axis=-1) \
-            * (self.system_spectrum(waveform) / self._kernel_ft)
+        """Analytic spectrum (n_channels, n_fft) of the echoes of ``paths`` driven by ``waveform``."""
+        return self.groups_spectrum([(paths, waveform)], n_channels)
 
     def to_analytic(self, spectrum: np.ndarray) -> np.ndarray:
         """Analytic recording (n_channels, n_samples) from a summed group spectrum."""
