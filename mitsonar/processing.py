@@ -36,7 +36,7 @@ import scipy.fft as sfft
 
 from .array import ArrayGeometry
 from .frames import direction_from_fov_angles
-from .synthesis import EchoSynthesizer, Recording
+from .synthesis import EchoSynthesizer, Recording, phasor
 from .validation import check_positive
 
 
@@ -156,12 +156,13 @@ class EchoProcessor:
 
     def compressed_spectra(self, recording: Recording, waveform=None) -> np.ndarray:
         """Matched-filtered analytic spectra of all channels, (N_rx, n_fft)."""
-        return sfft.fft(recording.samples, n=self.synth.n_fft, axis=-1) * self._matched_filter(waveform)[0]
+        return sfft.fft(recording.samples, n=self.synth.n_fft, axis=-1, workers=-1) \
+            * self._matched_filter(waveform)[0]
 
     def beamform(self, spectra: np.ndarray, n_samples: int, direction) -> np.ndarray:
         """Delay-and-sum of compressed spectra towards ``direction`` (3,): analytic (N,) [Pa]."""
         f = sfft.fftfreq(self.synth.n_fft, 1.0 / self.synth.sample_rate)
-        steer = np.exp(2j * np.pi * f[None, :] * self.receive_delays(direction)[:, None])
+        steer = phasor(2 * np.pi * f[None, :] * self.receive_delays(direction)[:, None])  # < 2e2 rad
         return sfft.ifft((spectra * steer).mean(axis=0))[:n_samples]
 
     def envelope(self, recording: Recording, direction, waveform=None) -> np.ndarray:
@@ -274,7 +275,7 @@ class EchoProcessor:
             ghost_dirs = self._ghost_directions(u)
             off_beam = np.zeros(len(candidates), bool)
             for spectra, carrier in looks:  # a candidate must pass in every look
-                off_beam |= self._arrives_off_beam(sfft.ifft(spectra, axis=-1)[:, :n], start_time,
+                off_beam |= self._arrives_off_beam(sfft.ifft(spectra, axis=-1, workers=-1)[:, :n], start_time,
                                                    candidates, u, ghost_dirs, carrier)
             candidates = candidates[~off_beam][:1]
         if len(candidates) == 0:

@@ -24,6 +24,13 @@ from .transducer import Transducer
 from .validation import check_finite, check_positive
 
 
+def phasor(angle) -> np.ndarray:
+    """exp(j angle), complex64, from single-precision cosine and sine: ~10x faster than np.exp;
+    phase error ~6e-8 |angle| [rad], so meant for angles up to ~1e3 rad."""
+    angle = np.asarray(angle, dtype=np.float32)
+    return np.cos(angle) + 1j * np.sin(angle)
+
+
 @dataclass(frozen=True)
 class Paths:
     """Flat list of acoustic paths.
@@ -70,9 +77,7 @@ class Paths:
         centre = np.where(total > 0, np.einsum("hij,hij->hj", weight, delay)
                           / np.where(total > 0, total, 1.0), delay.mean(axis=1))
         offset = delay - centre[:, None, :]
-        # Phases of at most ~60 rad: single precision keeps them within 1e-5 rad, 10x faster.
-        angle = (2 * np.pi * frequency * offset).astype(np.float32)
-        c = gain * (np.cos(angle) - 1j * np.sin(angle))
+        c = gain * phasor(-2 * np.pi * frequency * offset)  # phases of at most ~60 rad
         channel = self.channel.reshape(-1, n_tx, n_rx)[:, 0, :].ravel()
         return (Paths(c.sum(axis=1).ravel(), centre.ravel(), channel),
                 Paths(np.einsum("hij,hij->hj", c, offset).ravel(), centre.ravel(), channel))
@@ -304,7 +309,7 @@ class EchoSynthesizer:
         stacked = Paths.concatenate([Paths(p.gain, p.delay, p.channel + k * n_channels)
                                      for k, w in enumerate(waveforms) for p in by_waveform[w]])
         grid = self.impulse_grid(stacked, len(waveforms) * n_channels)
-        spectra = sfft.fft(grid, axis=-1).reshape(len(waveforms), n_channels, self.n_fft)
+        spectra = sfft.fft(grid, axis=-1, workers=-1).reshape(len(waveforms), n_channels, self.n_fft)
         filters = np.stack([self.system_spectrum(w) for w in waveforms]) / self._kernel_ft
         return np.einsum("wcf,wf->cf", spectra, filters)
 
@@ -314,7 +319,7 @@ class EchoSynthesizer:
 
     def to_analytic(self, spectrum: np.ndarray) -> np.ndarray:
         """Analytic recording (n_channels, n_samples) from a summed group spectrum."""
-        return sfft.ifft(spectrum, axis=-1)[:, : self.n_samples]
+        return sfft.ifft(spectrum, axis=-1, workers=-1)[:, : self.n_samples]
 
     def synthesize(self, paths: Paths, n_channels: int, noise_rms: float = 0.0,
                    seed=None, waveform=None) -> Recording:
