@@ -6,7 +6,7 @@ difference to the ``fine`` preset on beams both detect (median, 90th percentile)
 fraction of beams whose detection decision differs; speed is wall-clock time per ping. Writes a
 CSV + Markdown table and the chart (time per ping against depth error).
 
-    .venv/bin/python experiments/speed_accuracy.py --out out/speed_accuracy           # ~30 min
+    .venv/bin/python experiments/speed_accuracy.py --out out/speed_accuracy           # ~10 min
     .venv/bin/python experiments/speed_accuracy.py --quick --out out/speed_accuracy   # ~1 min
 """
 
