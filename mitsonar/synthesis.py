@@ -213,7 +213,7 @@ class EchoSynthesizer:
         """Analytic spectrum W(f) of the expected echo of a unit path (drive x H_tx x H_rx) on
         the FFT grid, scaled per sample; zero outside the band. Cached per waveform."""
         waveform = self.pulse if waveform is None else waveform
-        if waveform not in self._spectra and isinstance(waveform, Detuned):
+        if waveform not in self._spectra and isinstance(waveform, Detuned):  # the parent's band
             self._spectra[waveform] = -2j * np.pi * (self._freq - waveform.carrier) \
                 * self.system_spectrum(waveform.waveform)
         if waveform not in self._spectra:
@@ -238,8 +238,9 @@ class EchoSynthesizer:
         """(paths, waveform) groups that synthesise ``paths`` driven by ``waveform`` with each
         hit's transmit elements merged (:meth:`Paths.narrowband`) about the recorded centre
         frequency of each tone of the waveform (an OFDM code's ``parts``, else itself)."""
+        waveform = self.pulse if waveform is None else waveform
         groups = []
-        for tone in getattr(waveform or self.pulse, "parts", (waveform or self.pulse,)):
+        for tone in getattr(waveform, "parts", (waveform,)):
             centre = self.band_moments(tone)[0]
             merged, first_order = paths.narrowband(centre)
             groups += [(merged, tone), (first_order, Detuned(tone, centre))]
