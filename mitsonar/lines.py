@@ -356,6 +356,41 @@ def triangle_surfels(segments, join_tolerance: float = 10.0,
     return Surfels2D(vertices, np.stack([i, j], axis=1)[keep], s)
 
 
+def close_junctions(segments, gap: float, min_angle: float = np.radians(10.0)) -> np.ndarray:
+    """Segments (n, 4) [pixels] with ends extended to the junctions they stop short of.
+
+    A detector often stops a few pixels short of where two lines meet (the corner of a window,
+    a wall meeting the floor), leaving a gap through which image regions leak. For every pair
+    of segments that are not nearly parallel (``min_angle`` [rad]) and whose supporting lines
+    cross within ``gap`` [pixels] of both segments, each segment's nearer end is moved to the
+    crossing if the crossing lies beyond it; of several such junctions an end takes the
+    nearest. Segments are only lengthened, never shortened or moved sideways.
+    """
+    s = _check_segments(segments).copy()
+    check_range("gap [pixels]", gap, 0.0, np.inf)
+    if len(s) < 2 or gap == 0:
+        return s
+    i, j = np.nonzero(~np.eye(len(s), dtype=bool))  # ordered pairs: i is extended towards j
+    a, da = s[i, :2], s[i, 2:] - s[i, :2]
+    b, db = s[j, :2], s[j, 2:] - s[j, :2]
+    len_a, len_b = np.hypot(*da.T), np.hypot(*db.T)
+    cross = da[:, 0] * db[:, 1] - da[:, 1] * db[:, 0]
+    ok = np.abs(cross) > np.sin(min_angle) * len_a * len_b
+    w = b - a
+    ta = np.divide(w[:, 0] * db[:, 1] - w[:, 1] * db[:, 0], cross, out=np.zeros(len(i)), where=ok)
+    tb = np.divide(w[:, 0] * da[:, 1] - w[:, 1] * da[:, 0], cross, out=np.zeros(len(i)), where=ok)
+    beyond_a = np.maximum(np.maximum(-ta, ta - 1.0), 0.0) * len_a  # crossing past i's ends
+    beyond_b = np.maximum(np.maximum(-tb, tb - 1.0), 0.0) * len_b
+    ok &= (beyond_a > 0) & (beyond_a <= gap) & (beyond_b <= gap)
+    x = a + ta[:, None] * da
+    end = np.where(ta > 1.0, 2, 0)  # column of the end that moves: (u2, v2) or (u1, v1)
+    for e in (0, 2):  # each end takes its nearest junction
+        sel = ok & (end == e)
+        order = np.lexsort((-beyond_a[sel], i[sel]))  # per segment, the nearest written last
+        s[i[sel][order], e:e + 2] = x[sel][order]
+    return s
+
+
 def scan_pixels(vertices) -> np.ndarray:
     """The paper's four scan points (k, 4, 2) [pixels] of triangles (k, 3, 2).
 

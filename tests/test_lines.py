@@ -9,8 +9,8 @@ import mitsonar
 from mitsonar.array import ArrayGeometry
 from mitsonar.camera import CameraModel, CameraRenderer
 from mitsonar.frames import direction_from_angles, fov_angles
-from mitsonar.lines import (_angle_neighbours, clip_segments, detect_segments, fov_crop_box,
-                            merge_collinear, scan_directions, scan_pixels, triangle_surfels)
+from mitsonar.lines import (_angle_neighbours, clip_segments, close_junctions, detect_segments,
+                            fov_crop_box, merge_collinear, scan_directions, scan_pixels, triangle_surfels)
 from conftest import IDENTITY
 
 CAMERA = CameraModel()
@@ -194,6 +194,26 @@ def test_triangle_surfels_need_a_junction_at_ends_of_both_segments():
     }
     for name, segments in cases.items():
         assert len(triangle_surfels(np.array(segments, float))) == 0, name
+
+
+def test_close_junctions_extends_ends_to_nearby_junctions_only():
+    """L junction with both ends short (6 and 20 px) -> both reach the corner; a T junction
+    20 px short -> reaches the stem's line; a junction 40 px away (gap 25 px), parallel
+    segments, and ends already past the crossing are left alone."""
+    gap = 25.0
+    closed = close_junctions(np.array([[106, 100, 300, 100], [100, 120, 100, 300]], float), gap)
+    np.testing.assert_allclose(closed, [[100, 100, 300, 100], [100, 100, 100, 300]])
+    tee = close_junctions(np.array([[0, 100, 200, 100], [100, 120, 100, 300]], float), gap)
+    np.testing.assert_allclose(tee, [[0, 100, 200, 100], [100, 100, 100, 300]])
+    for segments in ([[140, 100, 300, 100], [100, 100, 100, 300]],  # 40 px short
+                     [[0, 0, 100, 0], [0, 5, 100, 5]],  # parallel
+                     [[0, 100, 200, 100], [100, 0, 100, 200]]):  # a crossing: nothing to close
+        s = np.array(segments, float)
+        np.testing.assert_array_equal(close_junctions(s, gap), s)
+    # of two junctions within reach, an end takes the nearer one
+    two = close_junctions(np.array([[0, 100, 190, 100], [200, 0, 200, 200],
+                                    [210, 0, 210, 200]], float), gap)
+    np.testing.assert_allclose(two[0], [0, 100, 200, 100])
 
 
 def test_scan_pixels_one_third_towards_each_vertex_then_the_centroid():

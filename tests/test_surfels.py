@@ -6,8 +6,9 @@ import pytest
 
 import mitsonar
 from mitsonar.camera import CameraModel
-from mitsonar.surfels import (PoseScan, SurfelSettings, fit_plane, group_surfels, map_surfels,
-                              region_labels, shadow_segments, verify)
+from mitsonar.surfels import (CheckPings, PlaneGroups, PoseScan, SurfelSettings, fit_plane,
+                              group_surfels, grow_planes, map_surfels, region_labels,
+                              shadow_segments, verify)
 from conftest import write_scene
 from test_lines import plane_xml
 
@@ -126,6 +127,35 @@ def test_regions_and_shadow_lines():
     assert shadow_segments(scan, regions, claims).tolist() == [False, True, True]
     claims[tr, 0] = 1  # two planes claim the top right region: undecided, kept
     assert shadow_segments(scan, regions, claims).tolist() == [False, True, False]
+
+
+def test_check_pings_stop_a_plane_where_the_sonar_refutes_it():
+    """One plane 2 m ahead claims the whole crop (no lines) from a surfel on its left. Check
+    pings on a 20 px grid: on the plane left of u = 100, 0.5 m behind it to the right.
+    The plane then grows only where the nearest evidence confirms it (left of u = 100); pings
+    without an echo say nothing; without checks the whole crop is grown."""
+    from dataclasses import replace
+
+    plane = PlaneGroups(np.zeros(1, int), np.array([[0.0, 0.0, -1.0]]), np.array([-2.0]),
+                        np.array([[-0.5, 0.0, 2.0]]), np.array([0.01]), 1)
+    surfel = np.array([[[-0.6, -0.1, 2.0], [-0.4, -0.1, 2.0], [-0.5, 0.1, 2.0],
+                        [-0.5, 0.0, 2.0]]])
+    scan = _scan_stub([])
+    unchecked = grow_planes(scan, np.zeros((0, 4)), plane, surfel)
+    assert np.all(unchecked.grid_plane == 0)
+    pixels = np.stack(np.meshgrid(np.arange(10.0, 200.0, 20.0), np.arange(5.0, 150.0, 20.0)),
+                      axis=-1).reshape(-1, 2)
+    u = pixels[:, 0]
+    points = np.column_stack([(u - 100) / 100, np.zeros(len(u)), np.where(u < 100, 2.0, 2.5)])
+    checked = grow_planes(replace(scan, checks=CheckPings(pixels, points)), np.zeros((0, 4)),
+                          plane, surfel)
+    cols = checked.grid_pixels[0, :, 0]
+    grown = checked.grid_plane >= 0
+    assert np.all(grown[:, cols < 99]) and not np.any(grown[:, cols > 101])
+    points[u > 100] = np.nan  # no echo on the right: nothing refutes the plane there
+    silent = grow_planes(replace(scan, checks=CheckPings(pixels, points)), np.zeros((0, 4)),
+                         plane, surfel)
+    assert np.all(silent.grid_plane == 0)
 
 
 # ---- rendered scenes -------------------------------------------------------------------------
