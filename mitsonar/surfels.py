@@ -72,7 +72,7 @@ three surfels per face give normals 1-3 deg off. Hence:
   on the fit), the sonar fixes the depth and the rest of the orientation. Constraints whose
   residual on the sonar-only planes exceeds ``crease_gate`` (an occlusion edge, a segment
   between unrelated planes) are left out. On the corner this gives normals within 0.7 deg and
-  the corner within 5 mm (tests/test_surfels.py); the pose meshes are then grown again on the
+  the corner within 1 cm (tests/test_surfels.py); the pose meshes are then grown again on the
   refined planes. ``max_fill=0, refine=False`` is the paper's method.
 
 Growing (:func:`region_labels`, :func:`grow_planes`): the detected segments, extended by
@@ -1016,6 +1016,7 @@ class SurfelMap:
         shadow: per pose, (n,) True for segments removed as shadow lines.
         rejected: counts of candidates not registered, by reason (:data:`REJECTIONS`).
         meshes: per pose, the planes grown in its image (:class:`PoseMesh`).
+        settings: the settings the map was built with.
     """
 
     scans: list
@@ -1030,6 +1031,7 @@ class SurfelMap:
     shadow: list
     rejected: dict = field(default_factory=dict)
     meshes: list = field(default_factory=list)
+    settings: SurfelSettings = SurfelSettings()
 
     def sample(self, spacing: float = 0.01, seed: int = 0):
         """Points (M, 3) [m] sampled uniformly on the mesh, one per ``spacing``^2 (metrics'
@@ -1147,7 +1149,7 @@ def build_map(scans, settings: SurfelSettings = SurfelSettings()) -> SurfelMap:
     return SurfelMap(list(scans), groups, pose_ids, index, points, tri3d,
                      np.concatenate(vertices).reshape(-1, 3),
                      np.concatenate(triangles).reshape(-1, 3).astype(np.int64),
-                     np.concatenate(plane).astype(int), shadow, rejected, meshes)
+                     np.concatenate(plane).astype(int), shadow, rejected, meshes, settings)
 
 
 def replace_segments(scan: PoseScan, keep) -> PoseScan:
@@ -1282,8 +1284,17 @@ def save_surfel_figure(path, surfel_map: SurfelMap, points, plane, title: str = 
     for k, tri in enumerate(scan.triangles):
         closed = np.vstack([tri, tri[:1]])
         ax_img.plot(closed[:, 0], closed[:, 1], "r--" if k in registered else "m:", lw=1.0)
-    ax_img.set_title("pose 0: lines (cyan, dashed: shadow), surfels (red; magenta: rejected)",
-                     fontsize=9)
+    caption = "pose 0: lines (cyan, dashed: shadow), surfels (red; magenta: rejected)"
+    if scan.checks is not None and len(scan.checks.pixels) and len(surfel_map.groups):
+        heard = np.all(np.isfinite(scan.checks.points), axis=1)
+        on = np.zeros(len(heard), dtype=bool)
+        on[heard] = _on_planes(scan.checks.points[heard], scan.pose.translation,
+                               surfel_map.groups, surfel_map.settings).any(axis=1)
+        for mask, colour in ((~heard, "0.6"), (heard & on, "lime"), (heard & ~on, "orangered")):
+            ax_img.scatter(*scan.checks.pixels[mask].T, s=18, facecolors="none",
+                           edgecolors=colour, linewidths=1.0)
+        caption += "\ncheck pings: on a plane (green), off (orange), no echo (grey)"
+    ax_img.set_title(caption, fontsize=9)
     ax_img.axis("off")
     fig.suptitle(title)
     fig.tight_layout()
@@ -1357,6 +1368,8 @@ def _run_surfel(args) -> int:
           f"{time.perf_counter() - start:.0f} s; wrote {args.out}/surfel_map.ply, "
           f"surfel_points.ply, surfels.json, surfel_map.png")
     if score is not None:
-        print(f"accuracy: {100 * score.accuracy:.1f} % of {len(points)} sampled points within "
-              f"2 cm of the ground truth (median {100 * score.median_distance:.1f} cm)")
+        print(f"accuracy: {100 * score.accuracy:.1f} % of {len(points)} sampled points "
+              f"({1e-4 * len(points):.1f} m^2) within 2 cm of the ground truth (median "
+              f"{100 * score.median_distance:.1f} cm); they cover {100 * score.completeness:.1f} % "
+              f"of the scene's surface")
     return 0
