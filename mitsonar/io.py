@@ -40,7 +40,12 @@ def write_table(path, rows: list[dict], markdown: list[str] | None = None) -> No
     lines also the .md beside it (experiments' tables)."""
     path = Path(path)
     header = list(rows[0])
-    cell = lambda v: v if isinstance(v, str) else f"{v:.6g}"  # noqa: E731
+
+    def cell(v) -> str:  # integers in full (counts), floats to 6 significant digits
+        if isinstance(v, str):
+            return v
+        return f"{v:d}" if isinstance(v, (int, np.integer)) else f"{v:.6g}"
+
     with atomic_path(path.with_suffix(".csv")) as tmp:
         tmp.write_text(",".join(header) + "\n"
                        + "\n".join(",".join(cell(r[k]) for k in header) for r in rows) + "\n")

@@ -34,7 +34,11 @@ class RepeatedMapSpec:
     """What to map.
 
     Attributes:
-        frames: number of OFDM frames, fired back to back from the trajectory's start.
+        frames: number of OFDM frames, fired from the trajectory's start.
+        interval: time between the starts of consecutive frames [s]; None: back to back (the
+            frame duration, 208.5 ms at the paper's settings). A longer interval keeps every
+            n-th frame of a continuous run (frames spread along the trajectory; the ones in
+            between are not simulated).
         scan_step: beam grid step over the field of view [rad] (5 deg: the paper's 13 x 9).
         image_width: camera image width [pixels]; spp: camera samples per pixel.
         voxels: voxel size, outlier removal.
@@ -44,6 +48,7 @@ class RepeatedMapSpec:
     """
 
     frames: int = 5
+    interval: float | None = None
     scan_step: float = np.radians(5.0)
     image_width: int = 320
     spp: int = 8
@@ -55,6 +60,8 @@ class RepeatedMapSpec:
         if int(self.frames) != self.frames or self.frames < 1:
             raise ValueError(f"RepeatedMapSpec.frames must be a positive integer, got {self.frames}")
         check_positive("RepeatedMapSpec.scan_step [rad]", self.scan_step)
+        if self.interval is not None:
+            check_positive("RepeatedMapSpec.interval [s]", self.interval)
         if self.registration not in REGISTRATIONS:
             raise ValueError(f"RepeatedMapSpec.registration must be one of {REGISTRATIONS}, got "
                              f"{self.registration!r}")
@@ -77,14 +84,19 @@ class ScannedFrame:
 
 def scan_repeated(sonar: Sonar, trajectory: Trajectory, spec: RepeatedMapSpec = RepeatedMapSpec(),
                   progress=None) -> tuple[list[ScannedFrame], CameraModel]:
-    """Fire ``spec.frames`` OFDM frames back to back along the trajectory, with an image each."""
+    """Fire ``spec.frames`` OFDM frames along the trajectory, ``spec.interval`` apart (default:
+    back to back), with an image each."""
     ofdm = OfdmSonar(sonar)
     schedule = ofdm.schedule(sonar.fov_grid(spec.scan_step))
+    interval = schedule.frame_duration if spec.interval is None else spec.interval
+    if interval < schedule.frame_duration:
+        raise ValueError(f"RepeatedMapSpec.interval [s] must be at least the frame duration "
+                         f"({schedule.frame_duration:.4f} s), got {interval}")
     camera = CameraRenderer(sonar.scene, CameraModel(spp=spec.spp).at_resolution(spec.image_width))
     pose_at = pose_along(trajectory)
     scanned = []
     for k in range(spec.frames):  # frames follow each other in time
-        start = k * schedule.frame_duration
+        start = k * interval
         frame = ofdm.frame(schedule, pose_at, start_time=start, seed=spec.seed + k)
         pose = pose_at(start)
         scanned.append(ScannedFrame(frame, camera.render(pose, seed=spec.seed + k).rgb, pose))

@@ -2,6 +2,7 @@
 
 import csv
 import importlib.util
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -13,6 +14,7 @@ EXPERIMENTS = Path(__file__).resolve().parents[1] / "experiments"
 def run_experiment(name: str, *argv) -> None:
     spec = importlib.util.spec_from_file_location(name, EXPERIMENTS / f"{name}.py")
     module = importlib.util.module_from_spec(spec)
+    sys.modules[name] = module  # dataclasses look their module up there
     spec.loader.exec_module(module)
     assert module.main(list(argv)) == 0
 
@@ -49,3 +51,66 @@ def test_speed_accuracy_quick(tmp_path):
     assert all(float(r["ms_per_ping"]) > 0 for r in rows)
     assert float(rows[2]["median_depth_diff_mm"]) == 0.0  # the reference against itself
     assert (tmp_path / "speed_accuracy.png").stat().st_size > 10_000
+
+
+@pytest.mark.slow
+def test_comparison_quick(tmp_path):
+    """Every sensor reconstructs both scenes; only the sonar puts points on room_glass's windows."""
+    run_experiment("comparison", "--quick", "--out", str(tmp_path))
+    rows = {(r["scene"], r["sensor"]): r for r in csv.DictReader((tmp_path / "comparison.csv").open())}
+    assert set(rows) == {(s, k) for s in ("room_glass", "workshop")
+                         for k in ("sonar", "lidar", "depth_camera")}
+    for (scene, key), r in rows.items():
+        assert int(r["points"]) > 0, (scene, key)
+        assert 0.0 <= float(r["accuracy"]) <= 1.0 and 0.0 <= float(r["completeness"]) <= 1.0
+        assert (tmp_path / scene / f"{key}.ply").stat().st_size > 0
+        assert (tmp_path / scene / f"{key}_errors.png").stat().st_size > 10_000
+        if scene == "workshop":  # no glass: nothing to score
+            assert np.isnan(float(r["glass_completeness"])) and int(r["glass_points"]) == 0
+    for key in ("lidar", "depth_camera"):  # they look through the windows
+        r = rows["room_glass", key]
+        assert int(r["glass_points"]) <= 0.001 * int(r["points"])
+        assert float(r["glass_completeness"]) < 0.05
+    sonar = rows["room_glass", "sonar"]
+    assert int(sonar["glass_points"]) > 0 and float(sonar["glass_accuracy"]) > 0.5
+    assert float(sonar["glass_completeness"]) > max(
+        float(rows["room_glass", k]["glass_completeness"]) for k in ("lidar", "depth_camera"))
+    materials = list(csv.DictReader((tmp_path / "per_material.csv").open()))
+    assert {"window_glass", "wall_drywall"} <= {r["material"] for r in materials
+                                                if r["scene"] == "room_glass"}
+    assert (tmp_path / "comparison.png").stat().st_size > 50_000
+    assert "glass completeness" in (tmp_path / "comparison.md").read_text()
+
+
+@pytest.mark.slow
+def test_small_objects_quick(tmp_path):
+    """Rates and fractions are proper; the optical sensors see a 20 cm box and a pole at 1.5 m,
+    and the sonar's wide beam sees no more of a 5 cm box than of a 20 cm one."""
+    run_experiment("small_objects", "--quick", "--out", str(tmp_path))
+    rows = list(csv.DictReader((tmp_path / "small_objects.csv").open()))
+    assert len(rows) == 2 * 2 * 3  # shapes x sizes x sensors
+    by = {(r["shape"], float(r["size_m"]), r["sensor"]): r for r in rows}
+    for r in rows:
+        assert 0.0 <= float(r["detection_rate"]) <= 1.0 and int(r["trials"]) == 2
+        c = float(r["completeness"])
+        assert np.isnan(c) or 0.0 <= c <= 1.0
+    for key in ("lidar", "depth_camera"):
+        for shape in ("box", "pole"):
+            assert float(by[shape, 0.2, key]["detection_rate"]) == 1.0
+        assert float(by["box", 0.2, key]["accuracy"]) > 0.8
+    sonar_small, sonar_large = by["box", 0.05, "sonar"], by["box", 0.2, "sonar"]
+    assert float(sonar_small["detection_rate"]) <= float(sonar_large["detection_rate"])
+    assert float(by["box", 0.2, "depth_camera"]["completeness"]) > float(sonar_large["completeness"])
+    assert (tmp_path / "small_objects.png").stat().st_size > 30_000
+    assert "detection %" in (tmp_path / "small_objects.md").read_text()
+
+
+def test_tables_keep_counts_exact(tmp_path):
+    """Integers (point counts beyond 1e6) are written in full, floats to 6 significant digits."""
+    from mitsonar.io import write_table
+
+    write_table(tmp_path / "t.csv", [{"name": "a", "points": 3_042_690, "n": np.int64(1_387_758),
+                                      "flag": True, "x": 1 / 3}], ["| md |"])
+    row = next(csv.DictReader((tmp_path / "t.csv").open()))
+    assert row == {"name": "a", "points": "3042690", "n": "1387758", "flag": "1", "x": "0.333333"}
+    assert (tmp_path / "t.md").read_text() == "| md |\n"

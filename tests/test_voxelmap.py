@@ -380,3 +380,25 @@ def test_checkerboard_wall_gives_voxels_with_the_colours_of_its_squares(scene_fi
     measured_red = voxels.colours[coloured][:, 0] > voxels.colours[coloured][:, 2]
     assert judged.sum() >= 10  # measured 15 voxels, all judged
     assert np.mean(measured_red[judged] == expected_red[judged]) >= 0.9  # measured 15 of 15
+
+
+def test_repeated_frames_are_spread_by_the_interval(scene_file):
+    """Frame k starts (pose, camera image) at k x interval; shorter than a frame is refused."""
+    from conftest import rectangle_xml
+
+    from mitsonar.mapping import RepeatedMapSpec, map_repeated
+    from mitsonar.ofdm import pose_along
+
+    material = material_xml("w", preset="concrete")
+    sonar = mitsonar.Sonar(scene_file("wall", material, rectangle_xml("w", (3.0, 0, 0.5),
+                                                                      (0, -90, 0), size=(4, 4))))
+    trajectory = mitsonar.Trajectory(np.array([[0.0, 0.0, 0.0], [2.0, 0.0, 0.0]]), speed=0.2)
+    spec = RepeatedMapSpec(frames=2, interval=4.0, scan_step=np.radians(30.0), image_width=32,
+                           spp=1)
+    _, positions, scanned = map_repeated(sonar, trajectory, spec)
+    np.testing.assert_allclose(positions[:, 0], [0.1, 0.9], atol=1e-9)  # head 0.1 m ahead
+    np.testing.assert_allclose(scanned[1].pose.translation, pose_along(trajectory)(4.0).translation)
+    with pytest.raises(ValueError, match="interval"):
+        map_repeated(sonar, trajectory, RepeatedMapSpec(frames=2, interval=0.1))
+    with pytest.raises(ValueError, match="interval"):
+        RepeatedMapSpec(interval=-1.0)
