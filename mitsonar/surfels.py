@@ -122,9 +122,11 @@ from pathlib import Path
 
 import numpy as np
 
+from .beampattern import in_fov
 from .camera import CameraModel, CameraRenderer
 from .frames import Pose
-from .lines import close_junctions, detect_segments, fov_crop_box, scan_directions, scan_pixels, triangle_surfels
+from .lines import (close_junctions, detect_segments, fov_crop_box, scan_directions, scan_pixels,
+                    triangle_surfels)
 from .sonar import Sonar
 from .trajectory import add_trajectory_argument, sensor_poses, trajectory_from_args
 from .validation import check_positive, check_range
@@ -572,8 +574,6 @@ def _fill_directions(camera: CameraModel, geometry, pixels, points_sensor):
     """Beam directions (k, m, 3) (NaN where none) for fill pixels (k, m, 2), re-aimed at the
     plane of each surfel's four measured points (k, 4, 3) (sensor frame) to remove the camera's
     parallax; directions outside the field of view are dropped (NaN)."""
-    from .frames import fov_angles
-
     k, m = pixels.shape[:2]
     out = np.full((k, m, 3), np.nan)
     ok = np.all(np.isfinite(pixels), axis=-1) & np.all(np.isfinite(points_sensor), axis=(1, 2))[:, None]
@@ -594,8 +594,7 @@ def _fill_directions(camera: CameraModel, geometry, pixels, points_sensor):
     if not np.any(ok):
         return out
     dirs = scan_directions(camera, pixels[ok], depth=depth[ok])
-    h, v = fov_angles(dirs)
-    inside = (np.abs(h) <= geometry.fov_horizontal / 2) & (np.abs(v) <= geometry.fov_vertical / 2)
+    inside = in_fov(dirs, geometry.fov_horizontal, geometry.fov_vertical)
     rows = np.nonzero(ok)
     out[rows[0][inside], rows[1][inside]] = dirs[inside]
     return out
@@ -862,8 +861,6 @@ def check_pose(sonar: Sonar, true_pose: Pose, scan: PoseScan, mesh: PoseMesh,
 
     import cv2
 
-    from .frames import fov_angles
-
     f = scan.camera.focal_pixels
     u0, v0, u1, v1 = scan.box
     clear = np.ones(mesh.regions.shape, np.uint8)  # 0 on the barriers inside the crop
@@ -877,9 +874,8 @@ def check_pose(sonar: Sonar, true_pose: Pose, scan: PoseScan, mesh: PoseMesh,
     pixels, targets = mesh.grid_pixels[rows, rows][grown], mesh.grid_points[rows, rows][grown]
     directions = scan.pose.inverse().transform_points(targets)
     directions /= np.linalg.norm(directions, axis=1, keepdims=True)
-    h, v = fov_angles(directions)
     geometry = sonar.config.geometry
-    inside = (np.abs(h) <= geometry.fov_horizontal / 2) & (np.abs(v) <= geometry.fov_vertical / 2)
+    inside = in_fov(directions, geometry.fov_horizontal, geometry.fov_vertical)
     pixels, directions = pixels[inside], directions[inside]
     points = np.zeros((0, 3))
     if len(directions):
@@ -1122,12 +1118,13 @@ def build_map(scans, settings: SurfelSettings = SurfelSettings()) -> SurfelMap:
         seen = np.concatenate([np.repeat(view, 4, axis=0), np.repeat(view, extra.shape[1], axis=0)])
         finite = np.all(np.isfinite(every), axis=1)
         every, label, seen = every[finite], label[finite], seen[finite]
-        count = -1
+        previous = None
         for _ in range(settings.max_iterations):  # until the check points on the planes settle
             checked, check_label, check_view = _check_points(scans, meshes, groups, settings)
-            if len(checked) == count:
+            if previous is not None and np.array_equal(previous[0], checked) and \
+                    np.array_equal(previous[1], check_label):
                 break
-            count = len(checked)
+            previous = checked, check_label
             groups = refine_planes(groups, np.concatenate([every, checked]),
                                    np.concatenate([label, check_label]),
                                    np.concatenate([seen, check_view]), creases, settings)
