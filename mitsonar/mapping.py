@@ -1,12 +1,13 @@
 """Repeated-scanning maps (paper III-E): OFDM frames along a trajectory -> points coloured by the
 camera -> world frame by (12) -> outlier removal -> coloured voxel map (PLY + PNG).
 
-Registration. The paper registers a frame's points with the odometry pose q_i of the frame
-(``registration="frame"``: the pose when the frame starts, also when its image is taken). The
-beams of a 208.5 ms frame leave from poses up to v x 0.2 m apart, so a moving robot smears
-surfaces (the paper's Fig. 8b failure case; ``experiments/ofdm_motion.py`` measures it).
-``registration="beam"`` uses each beam's own pose at firing instead (motion compensation, which
-needs the odometry at the beam rate).
+Registration. The beams of a 208.5 ms frame leave from poses up to v x 0.2 m apart (and up to
+6 deg apart while the robot turns at 30 deg/s). ``registration="beam"`` (default) registers
+each beam with its own pose at firing (motion compensation; it needs odometry at the cycle
+rate, 43 Hz, which wheel odometry exceeds). The paper registers a whole frame with the
+odometry pose q_i of its start (``registration="frame"``, also when its image is taken), so a
+moving robot smears surfaces (the paper's Fig. 8b failure case; ``experiments/ofdm_motion.py``
+measures it).
 """
 
 from __future__ import annotations
@@ -42,8 +43,8 @@ class RepeatedMapSpec:
         scan_step: beam grid step over the field of view [rad] (5 deg: the paper's 13 x 9).
         image_width: camera image width [pixels]; spp: camera samples per pixel.
         voxels: voxel size, outlier removal.
-        registration: "frame" (one odometry pose per frame, as the paper) or "beam" (each
-            beam's pose at firing).
+        registration: "beam" (each beam's pose at firing) or "frame" (one odometry pose per
+            frame, as the paper).
         seed: seeds every frame's noise and diffuse phases.
     """
 
@@ -53,7 +54,7 @@ class RepeatedMapSpec:
     image_width: int = 320
     spp: int = 8
     voxels: VoxelMapSettings = VoxelMapSettings()
-    registration: str = "frame"
+    registration: str = "beam"
     seed: int = 0
 
     def __post_init__(self):
@@ -141,8 +142,9 @@ def add_cli(subparsers) -> None:
     r.add_argument("--preset", default="default", help="sonar preset: default or paper")
     r.add_argument("--broadband", action="store_true",
                    help="broadband transducers (20 kHz at -6 dB) instead of the 2 kHz TCT40 class")
-    r.add_argument("--registration", choices=REGISTRATIONS, default="frame",
-                   help="one odometry pose per frame (the paper's, default) or per beam")
+    r.add_argument("--registration", choices=REGISTRATIONS, default="beam",
+                   help="each beam's pose at firing (default) or one odometry pose per frame "
+                        "(the paper's)")
     r.add_argument("--seed", type=int, default=0)
     r.set_defaults(func=_run_repeated)
     from .surfels import add_cli as add_surfel_cli

@@ -23,8 +23,20 @@ Order and choices:
   tone leaks into one part only (the paper's codes correlate at 1/2 through a shared half), so
   this rejects it where a threshold on the whole-code envelope could not.
   No accepted candidate gives "no detection": NaN depth and ``detected = False``.
+* Arrival direction (``arrival_step`` > 0; beyond the paper, which places every point on the beam
+  axis): the transmit beam lights everything within its main lobe, and at 3 m a reflector 3 deg
+  off the axis is 16 cm from it. Where along the lobe the echo at the detected instant comes
+  from is read from the receive array: the narrow-band delay-and-sum power at that instant over
+  directions within ``ghost_exclusion`` of the beam (``arrival_step`` apart, refined by a
+  parabola through the strongest and its neighbours along each axis), summed over the looks.
+  Its maximum is the arrival direction u_a, seen from the receive origin o_R. A surface seen
+  obliquely (a floor, a wall at 50 deg) returns first from the near edge of the lobe, not from
+  its axis; that is where u_a points.
 * Depth by the bistatic (7): d = (l^2 - b^2) / (2 (l - b cos theta_b)), with theta_b the angle
   between the beam and the baseline vector (TX -> RX origin); point = d * u in the sensor frame.
+  With an arrival direction, (7) is solved from the receive side instead (range r from o_R along
+  u_a, theta_b measured from the RX -> TX vector): point = o_R + r u_a, and the depth is the
+  point's distance from the transmit origin.
 """
 
 from __future__ import annotations
@@ -35,7 +47,7 @@ import numpy as np
 import scipy.fft as sfft
 
 from .array import ArrayGeometry
-from .frames import direction_from_fov_angles
+from .frames import direction_from_fov_angles, fov_angles
 from .synthesis import EchoSynthesizer, Recording, phasor
 from .validation import check_positive
 
@@ -59,6 +71,8 @@ class DetectionSettings:
         max_candidates: envelope peaks examined, strongest first.
         part_balance: for waveforms with ``parts``, the weakest part's envelope over the
             strongest's that a candidate needs (in (0, 1]; an echo carries both equally).
+        arrival_step: grid step of the arrival-direction estimate within the main lobe [rad]
+            (module docstring; 0: every point on the beam axis, as the paper).
     """
 
     detection_snr: float = 5.0
@@ -71,6 +85,7 @@ class DetectionSettings:
     ghost_half_span: float = np.radians(50.0)
     max_candidates: int = 8
     part_balance: float = 0.3
+    arrival_step: float = np.radians(0.5)
 
     def __post_init__(self):
         for name in ("detection_snr", "detection_floor", "blanking_margin", "min_range",
@@ -78,6 +93,8 @@ class DetectionSettings:
             check_positive(f"DetectionSettings.{name}", getattr(self, name))
         if not (np.isfinite(self.ghost_margin) and self.ghost_margin >= 0):
             raise ValueError(f"DetectionSettings.ghost_margin must be >= 0, got {self.ghost_margin}")
+        if not (np.isfinite(self.arrival_step) and self.arrival_step >= 0):
+            raise ValueError(f"DetectionSettings.arrival_step [rad] must be >= 0, got {self.arrival_step}")
         if not 0 < self.part_balance <= 1:
             raise ValueError(f"DetectionSettings.part_balance must be in (0, 1], got {self.part_balance}")
         if int(self.max_candidates) != self.max_candidates or self.max_candidates < 1:
@@ -92,8 +109,11 @@ class Detection:
         detected: True when an echo passed every test.
         time_of_arrival: [s] from the virtual firing of the transmit origin (NaN if none).
         path_length: l = c * time_of_arrival [m] (NaN if none).
-        depth: distance from the transmit origin along the beam, (7) [m] (NaN if none).
+        depth: distance of the point from the transmit origin, (7) [m] (NaN if none); along the
+            beam unless the arrival direction is estimated.
         point: (3,) reflector in the sensor frame [m] (NaN if none).
+        direction: (3,) unit vector the echo arrived from, the beam's own direction without an
+            arrival-direction estimate (NaN if none).
         amplitude: strongest envelope value beyond the minimum range [Pa] (finite even when not
             detected: what the receiver saw).
         threshold: envelope level that amplitude had to exceed there [Pa].
@@ -104,6 +124,7 @@ class Detection:
     path_length: float
     depth: float
     point: np.ndarray
+    direction: np.ndarray
     amplitude: float
     threshold: float
 
@@ -179,23 +200,52 @@ class EchoProcessor:
         dirs = direction_from_fov_angles(hh, vv).reshape(-1, 3)
         return dirs[dirs @ direction < np.cos(self.settings.ghost_exclusion)]
 
-    def _arrives_off_beam(self, channels, start_time, candidates, direction, ghost_dirs,
-                          carrier) -> np.ndarray:
-        """(C,) True where, at candidate sample k, some receive direction outside the main lobe
-        is ``ghost_margin`` times stronger than the beam: narrow-band delay-and-sum of the
-        demodulated channels (N_rx, N), linearly interpolated, over all candidates at once."""
+    def _narrowband_power(self, channels, start_time, samples, directions, carrier) -> np.ndarray:
+        """(C, D) magnitude of the narrow-band delay-and-sum of the analytic channels (N_rx, N),
+        demodulated at ``carrier`` [Hz], at (fractional) samples (C,) towards directions (D, 3);
+        channels are interpolated linearly between samples."""
         fs = self.synth.sample_rate
         w0 = 2 * np.pi * carrier
         n = channels.shape[1]
         baseband = channels * np.exp(-1j * w0 * (start_time + np.arange(n) / fs))
-        delays = self.receive_delays(np.concatenate([direction[None], ghost_dirs]))  # (D, N_rx)
-        q = np.asarray(candidates, dtype=float)[:, None, None] + delays[None] * fs  # (C, D, N_rx)
+        delays = self.receive_delays(directions)  # (D, N_rx)
+        q = np.asarray(samples, dtype=float)[:, None, None] + delays[None] * fs  # (C, D, N_rx)
         i0 = np.clip(np.floor(q).astype(np.int64), 0, n - 2)
         frac = q - i0
         rows = np.arange(channels.shape[0])
         values = (1 - frac) * baseband[rows, i0] + frac * baseband[rows, i0 + 1]
-        power = np.abs(np.einsum("cdj,dj->cd", values, np.exp(1j * w0 * delays)))
-        return power[:, 1:].max(axis=1, initial=0.0) > self.settings.ghost_margin * power[:, 0]
+        return np.abs(np.einsum("cdj,dj->cd", values, np.exp(1j * w0 * delays)))
+
+    def _arrives_off_beam(self, looks, start_time, candidates, direction) -> np.ndarray:
+        """(C,) True where, at candidate sample k, in any look (channels, carrier), some receive
+        direction outside the main lobe is ``ghost_margin`` times stronger than the beam."""
+        directions = np.concatenate([direction[None], self._ghost_directions(direction)])
+        off_beam = np.zeros(len(candidates), bool)
+        for channels, carrier in looks:
+            power = self._narrowband_power(channels, start_time, candidates, directions, carrier)
+            off_beam |= power[:, 1:].max(axis=1, initial=0.0) > self.settings.ghost_margin * power[:, 0]
+        return off_beam
+
+    def _arrival_direction(self, looks, start_time, sample: float, direction) -> np.ndarray:
+        """Unit vector (3,) of the strongest arrival at (fractional) ``sample`` within
+        ``ghost_exclusion`` of the beam ``direction`` (3,): narrow-band delay-and-sum power summed
+        over the looks on an ``arrival_step`` grid of field-of-view angles, the maximum refined
+        by a parabola along each axis."""
+        s = self.settings
+        h0, v0 = fov_angles(direction)
+        half = int(np.floor(s.ghost_exclusion / s.arrival_step))
+        offsets = np.arange(-half, half + 1) * s.arrival_step
+        hh, vv = np.meshgrid(h0 + offsets, v0 + offsets, indexing="ij")
+        grid = direction_from_fov_angles(hh, vv)  # (G, G, 3)
+        power = sum(self._narrowband_power(channels, start_time, [sample], grid.reshape(-1, 3),
+                                           carrier)[0] ** 2 for channels, carrier in looks)
+        power = np.where(grid.reshape(-1, 3) @ direction >= np.cos(s.ghost_exclusion), power, 0.0)
+        power = power.reshape(hh.shape)
+        i, j = np.unravel_index(int(np.argmax(power)), power.shape)
+        along_h = power[i - 1: i + 2, j] if 0 < i < 2 * half else None
+        along_v = power[i, j - 1: j + 2] if 0 < j < 2 * half else None
+        return direction_from_fov_angles(h0 + offsets[i] + s.arrival_step * _vertex(along_h),
+                                         v0 + offsets[j] + s.arrival_step * _vertex(along_v))
 
     def process(self, recording: Recording, direction, direct_envelope: np.ndarray | None = None,
                 waveform=None, transmit_time: float = 0.0, max_path_length: float | None = None):
@@ -271,20 +321,33 @@ class EchoProcessor:
             candidates = candidates[parts.min(axis=0) >= s.part_balance * parts.max(axis=0)]
         candidates = candidates[np.argsort(envelope[candidates])[::-1][: s.max_candidates]]
         nan3 = np.full(3, np.nan)
-        if len(candidates) and len(looks) and s.ghost_margin > 0:
-            ghost_dirs = self._ghost_directions(u)
-            off_beam = np.zeros(len(candidates), bool)
-            for spectra, carrier in looks:  # a candidate must pass in every look
-                off_beam |= self._arrives_off_beam(sfft.ifft(spectra, axis=-1, workers=-1)[:, :n], start_time,
-                                                   candidates, u, ghost_dirs, carrier)
-            candidates = candidates[~off_beam][:1]
         if len(candidates) == 0:
-            return Detection(False, np.nan, np.nan, np.nan, nan3, amplitude, level)
+            return Detection(False, np.nan, np.nan, np.nan, nan3, nan3, amplitude, level)
+        channels = [(sfft.ifft(spectra, axis=-1, workers=-1)[:, :n], carrier)
+                    for spectra, carrier in looks]
+        if channels and s.ghost_margin > 0:  # a candidate must pass in every look
+            candidates = candidates[~self._arrives_off_beam(channels, start_time, candidates, u)][:1]
+        if len(candidates) == 0:
+            return Detection(False, np.nan, np.nan, np.nan, nan3, nan3, amplitude, level)
         k = int(candidates[0])
-        y0, y1, y2 = envelope[k - 1: k + 2]
-        denom = y0 - 2 * y1 + y2
-        offset = 0.5 * (y0 - y2) / denom if denom < 0 else 0.0
-        toa = float(t[k] + offset / fs)
+        sample = k + _vertex(envelope[k - 1: k + 2])
+        toa = float(t[0] + sample / fs)
         l = self.c * toa
-        depth = float(bistatic_depth(l, g.baseline, cos_b))
-        return Detection(True, toa, l, depth, depth * u, float(envelope[k]), float(threshold[k]))
+        if channels and s.arrival_step > 0:  # (7) seen from the receive origin
+            arrival = self._arrival_direction(channels, start_time, sample, u)
+            receive_range = bistatic_depth(l, g.baseline, -float(arrival @ g.rx_origin) / g.baseline)
+            point = g.rx_origin + receive_range * arrival
+        else:
+            arrival, point = u, bistatic_depth(l, g.baseline, cos_b) * u
+        return Detection(True, toa, l, float(np.linalg.norm(point)), point, arrival,
+                         float(envelope[k]), float(threshold[k]))
+
+
+def _vertex(values) -> float:
+    """Offset [samples] of the vertex of the parabola through three equally spaced values (3,)
+    from the middle one; 0 for None or where they do not peak in the middle."""
+    if values is None:
+        return 0.0
+    y0, y1, y2 = values
+    denom = y0 - 2 * y1 + y2
+    return float(0.5 * (y0 - y2) / denom) if denom < 0 else 0.0
