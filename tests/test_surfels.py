@@ -234,13 +234,14 @@ def test_rendered_corner_gives_three_planes(corner_map):
     """Every candidate surfel of the three poses is registered and lands on the right face: three
     groups, one per face, meeting the surfel issue's targets ('paper' preset): normals within
     1 deg, planes within 1 cm of the true planes where the faces are (at the true corner), and
-    the three planes meeting within 2 cm of it. Measured (seed 0, 317 pings with the check
-    pings): normals off by 0.39 deg (wall x = 2), 0.52 deg (wall y = 2), 0.12 deg (floor);
-    planes 5.6, 6.2, 0.7 mm from the corner, which they locate within 8.4 mm (without check
-    pings, 72 pings: 0.72, 0.81, 0.16 deg; 6.4, 8.0, 1.3 mm; 10.3 mm). (Offsets d of
+    the three planes meeting within 2 cm of it. Measured (seed 0, with the check pings and the
+    arrival-direction estimate): normals off by 0.12 deg (wall x = 2), 0.20 deg (wall y = 2),
+    0.14 deg (floor); planes 4.7, 3.1, 0.0 mm from the corner, which they locate within 5.6 mm
+    (without check pings: 0.60, 0.79, 0.31 deg; 1.2, 1.6, 0.2 mm; 2.0 mm). (Offsets d of
     n . x = d, i.e. referred to the world origin 2.8-3.6 m away, are off by more: there a
-    0.5 deg tilt alone moves the plane by 2-3 cm.) Sonar points alone (``refine=False``, before
-    check pings): 1.6, 1.5, 1.1 deg, 6.2 cm."""
+    0.5 deg tilt alone moves the plane by 2-3 cm.) Sonar points alone (``refine=False``, no
+    fill or check pings): 0.98, 0.56, 0.12 deg, 2.2 cm (1.6, 1.5, 1.1 deg, 6.2 cm with every
+    point on its beam's axis)."""
     surfel_map, planes = corner_map
     assert len(surfel_map.groups) == 3 and len(surfel_map.surfel_pose) == 9
     assert np.bincount(surfel_map.groups.label).tolist() == [3, 3, 3]
@@ -263,8 +264,8 @@ def test_rendered_corner_gives_three_planes(corner_map):
 @pytest.mark.slow
 def test_tilted_wall_is_reconstructed_tilted(tmp_path_factory):
     """The wall x = 2 leaning back 20 deg: its group's tilt from vertical is 20 deg within the
-    issue's 2 deg (measured 20.05 deg with the check pings, 20.81 deg without, seed 0; sonar
-    points alone: 23.4 deg)."""
+    issue's 2 deg (measured 20.04 deg with the check pings, 19.86 deg without, seed 0; sonar
+    points alone: 19.33 deg, 23.4 deg with every point on its beam's axis)."""
     surfel_map, planes = _reconstruct(tmp_path_factory, 20.0)
     assert len(surfel_map.groups) == 3
     errors, _ = plane_errors(surfel_map.groups, planes)
