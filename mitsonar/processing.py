@@ -200,33 +200,37 @@ class EchoProcessor:
         dirs = direction_from_fov_angles(hh, vv).reshape(-1, 3)
         return dirs[dirs @ direction < np.cos(self.settings.ghost_exclusion)]
 
-    def _narrowband_power(self, channels, start_time, samples, directions, carrier) -> np.ndarray:
-        """(C, D) magnitude of the narrow-band delay-and-sum of the analytic channels (N_rx, N),
-        demodulated at ``carrier`` [Hz], at (fractional) samples (C,) towards directions (D, 3);
-        channels are interpolated linearly between samples."""
+    def _baseband(self, spectra, n: int, start_time: float, carrier: float) -> np.ndarray:
+        """(N_rx, n) analytic channels of compressed ``spectra`` (N_rx, n_fft) demodulated at
+        ``carrier`` [Hz]; their first sample is at ``start_time`` [s]."""
+        t = start_time + np.arange(n) / self.synth.sample_rate
+        return sfft.ifft(spectra, axis=-1, workers=-1)[:, :n] * np.exp(-2j * np.pi * carrier * t)
+
+    def _narrowband_power(self, baseband, samples, directions, carrier) -> np.ndarray:
+        """(C, D) magnitude of the narrow-band delay-and-sum of channels (N_rx, N) demodulated at
+        ``carrier`` [Hz] (:meth:`_baseband`), at (fractional) samples (C,) towards directions
+        (D, 3); channels are interpolated linearly between samples."""
         fs = self.synth.sample_rate
-        w0 = 2 * np.pi * carrier
-        n = channels.shape[1]
-        baseband = channels * np.exp(-1j * w0 * (start_time + np.arange(n) / fs))
+        n = baseband.shape[1]
         delays = self.receive_delays(directions)  # (D, N_rx)
         q = np.asarray(samples, dtype=float)[:, None, None] + delays[None] * fs  # (C, D, N_rx)
         i0 = np.clip(np.floor(q).astype(np.int64), 0, n - 2)
         frac = q - i0
-        rows = np.arange(channels.shape[0])
+        rows = np.arange(baseband.shape[0])
         values = (1 - frac) * baseband[rows, i0] + frac * baseband[rows, i0 + 1]
-        return np.abs(np.einsum("cdj,dj->cd", values, np.exp(1j * w0 * delays)))
+        return np.abs(np.einsum("cdj,dj->cd", values, np.exp(2j * np.pi * carrier * delays)))
 
-    def _arrives_off_beam(self, looks, start_time, candidates, direction) -> np.ndarray:
-        """(C,) True where, at candidate sample k, in any look (channels, carrier), some receive
+    def _arrives_off_beam(self, looks, candidates, direction) -> np.ndarray:
+        """(C,) True where, at candidate sample k, in any look (baseband, carrier), some receive
         direction outside the main lobe is ``ghost_margin`` times stronger than the beam."""
         directions = np.concatenate([direction[None], self._ghost_directions(direction)])
         off_beam = np.zeros(len(candidates), bool)
-        for channels, carrier in looks:
-            power = self._narrowband_power(channels, start_time, candidates, directions, carrier)
+        for baseband, carrier in looks:
+            power = self._narrowband_power(baseband, candidates, directions, carrier)
             off_beam |= power[:, 1:].max(axis=1, initial=0.0) > self.settings.ghost_margin * power[:, 0]
         return off_beam
 
-    def _arrival_direction(self, looks, start_time, sample: float, direction) -> np.ndarray:
+    def _arrival_direction(self, looks, sample: float, direction) -> np.ndarray:
         """Unit vector (3,) of the strongest arrival at (fractional) ``sample`` within
         ``ghost_exclusion`` of the beam ``direction`` (3,): narrow-band delay-and-sum power summed
         over the looks on an ``arrival_step`` grid of field-of-view angles, the maximum refined
@@ -237,8 +241,8 @@ class EchoProcessor:
         offsets = np.arange(-half, half + 1) * s.arrival_step
         hh, vv = np.meshgrid(h0 + offsets, v0 + offsets, indexing="ij")
         grid = direction_from_fov_angles(hh, vv)  # (G, G, 3)
-        power = sum(self._narrowband_power(channels, start_time, [sample], grid.reshape(-1, 3),
-                                           carrier)[0] ** 2 for channels, carrier in looks)
+        power = sum(self._narrowband_power(baseband, [sample], grid.reshape(-1, 3), carrier)[0] ** 2
+                    for baseband, carrier in looks)
         power = np.where(grid.reshape(-1, 3) @ direction >= np.cos(s.ghost_exclusion), power, 0.0)
         power = power.reshape(hh.shape)
         i, j = np.unravel_index(int(np.argmax(power)), power.shape)
@@ -323,18 +327,19 @@ class EchoProcessor:
         nan3 = np.full(3, np.nan)
         if len(candidates) == 0:
             return Detection(False, np.nan, np.nan, np.nan, nan3, nan3, amplitude, level)
-        channels = [(sfft.ifft(spectra, axis=-1, workers=-1)[:, :n], carrier)
-                    for spectra, carrier in looks]
-        if channels and s.ghost_margin > 0:  # a candidate must pass in every look
-            candidates = candidates[~self._arrives_off_beam(channels, start_time, candidates, u)][:1]
+        check, locate = s.ghost_margin > 0, s.arrival_step > 0
+        looks = [(self._baseband(spectra, n, start_time, carrier), carrier)
+                 for spectra, carrier in looks] if check or locate else []
+        if looks and check:  # a candidate must pass in every look
+            candidates = candidates[~self._arrives_off_beam(looks, candidates, u)][:1]
         if len(candidates) == 0:
             return Detection(False, np.nan, np.nan, np.nan, nan3, nan3, amplitude, level)
         k = int(candidates[0])
         sample = k + _vertex(envelope[k - 1: k + 2])
         toa = float(t[0] + sample / fs)
         l = self.c * toa
-        if channels and s.arrival_step > 0:  # (7) seen from the receive origin
-            arrival = self._arrival_direction(channels, start_time, sample, u)
+        if looks and locate:  # (7) seen from the receive origin
+            arrival = self._arrival_direction(looks, sample, u)
             receive_range = bistatic_depth(l, g.baseline, -float(arrival @ g.rx_origin) / g.baseline)
             point = g.rx_origin + receive_range * arrival
         else:
