@@ -117,7 +117,7 @@ Pixel coordinates follow :mod:`mitsonar.lines` (pixel centres at half-integers).
 from __future__ import annotations
 
 import sys
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -141,7 +141,8 @@ class SurfelSettings:
 
     Attributes:
         image_width: camera image width [pixels] (the 1600 x 1200 camera scaled down).
-        spp: camera samples per pixel (FLD needs >= 16-32 on path-traced images).
+        spp: camera samples per pixel (8 with the camera's denoiser; FLD needs 32 or more on raw
+            path-traced images).
         min_length: shortest line segment kept [pixels]; None: the paper's 50 px at 1600 px,
             scaled to ``image_width``.
         verify_threshold: largest distance of the measured centroid from the plane of the three
@@ -158,7 +159,10 @@ class SurfelSettings:
         junction_gap: barrier segments that stop at most this short of a junction with another
             segment are extended to it [pixels] (:func:`~mitsonar.lines.close_junctions`).
         stride: grid step of the back-projected pixels [pixels].
-        max_range: farthest back-projected map point from the camera [m].
+        max_range: farthest back-projected map point from the camera [m]; None: the sonar's
+            ``SonarConfig.max_range``, beyond which no check ping can confirm or refute a grown
+            plane (a floor grown through a doorway onto the wall behind it reached 10 m); no
+            limit where planes are grown without a sonar (:func:`build_map` called directly).
         shadow_offset: distance across a segment at which its two sides are sampled [pixels].
         max_iterations: cap on the regroup/refit iterations.
         seed: seeds the images and the pings.
@@ -181,7 +185,7 @@ class SurfelSettings:
     """
 
     image_width: int = 400
-    spp: int = 32
+    spp: int = 8
     min_length: float | None = None
     verify_threshold: float = 0.15
     merge_angle: float = np.radians(10.0)
@@ -191,7 +195,7 @@ class SurfelSettings:
     barrier_width: int = 3
     junction_gap: float = 25.0
     stride: int = 2
-    max_range: float = 10.0
+    max_range: float | None = None
     shadow_offset: float = 5.0
     max_iterations: int = 20
     seed: int = 0
@@ -224,7 +228,8 @@ class SurfelSettings:
         check_range("SurfelSettings.barrier_extension [pixels]", self.barrier_extension, 0, np.inf)
         check_range("SurfelSettings.junction_gap [pixels]", self.junction_gap, 0, np.inf)
         check_range("SurfelSettings.check_spacing [rad]", self.check_spacing, 0, np.pi / 2)
-        check_positive("SurfelSettings.max_range [m]", self.max_range)
+        if self.max_range is not None:
+            check_positive("SurfelSettings.max_range [m]", self.max_range)
         check_positive("SurfelSettings.shadow_offset [pixels]", self.shadow_offset)
 
     @property
@@ -826,7 +831,8 @@ def grow_planes(scan: PoseScan, segments, groups: PlaneGroups, surfel_points, se
     support = _support(scan, regions, groups, uv[seen], group_of[seen], pixels, settings)
     if support is not None:
         allowed &= support
-    valid = allowed & (t > 1e-6) & (dist <= settings.max_range)
+    limit = np.inf if settings.max_range is None else settings.max_range
+    valid = allowed & (t > 1e-6) & (dist <= limit)
     dist = np.where(valid, dist, np.inf)
     if n_groups:
         best = np.argmin(dist, axis=-1)
@@ -857,8 +863,6 @@ def check_pose(sonar: Sonar, true_pose: Pose, scan: PoseScan, mesh: PoseMesh,
     reaches across a crease), each aimed at its grid pixel's point on the grown plane (so the
     camera's parallax is removed); fired from ``true_pose``, registered by the scan's odometry
     pose."""
-    from dataclasses import replace
-
     import cv2
 
     f = scan.camera.focal_pixels
@@ -965,8 +969,6 @@ def refine_planes(groups: PlaneGroups, points, label, viewpoints, creases,
     counts linearly: robust to the few echoes from elsewhere); creases whose residual on the
     starting planes exceeds ``crease_gate`` pixels are left out.
     """
-    from dataclasses import replace
-
     from scipy.optimize import least_squares
 
     n_groups = len(groups)
@@ -1152,8 +1154,6 @@ def build_map(scans, settings: SurfelSettings = SurfelSettings()) -> SurfelMap:
 def replace_segments(scan: PoseScan, keep) -> PoseScan:
     """``scan`` with only the segments ``keep`` (n,) bool (pairs of dropped ones are not
     meaningful in the result and are emptied)."""
-    from dataclasses import replace
-
     return replace(scan, segments=scan.segments[np.asarray(keep, bool)],
                    segment_pairs=np.zeros((0, 2), int), triangles=np.zeros((0, 3, 2)),
                    points_world=np.zeros((0, 4, 3)), residual=np.zeros(0),
@@ -1189,6 +1189,8 @@ def map_surfels(sonar: Sonar, poses, odometry=None, settings: SurfelSettings = S
         raise ValueError(f"odometry has {len(odometry)} poses, poses {len(poses)}")
     if not poses:
         raise ValueError("map_surfels needs at least one pose")
+    if settings.max_range is None:
+        settings = replace(settings, max_range=sonar.config.max_range)
     camera = CameraModel(spp=settings.spp).at_resolution(settings.image_width)
     renderer = CameraRenderer(sonar.scene, camera)
     scans = []
@@ -1328,7 +1330,7 @@ def add_cli(map_subparsers) -> None:
     add_trajectory_argument(s)
     s.add_argument("--frames", type=int, default=5, help="poses spread evenly over the trajectory")
     s.add_argument("--width", type=int, default=400, help="camera image width [pixels]")
-    s.add_argument("--spp", type=int, default=32, help="camera samples per pixel")
+    s.add_argument("--spp", type=int, default=8, help="camera samples per pixel (default 8)")
     s.add_argument("--preset", choices=("default", "paper"), default="default",
                    help="sonar model (SonarConfig.preset)")
     s.add_argument("--seed", type=int, default=0)

@@ -85,6 +85,9 @@ class AcousticBSDF(mi.BSDF):
     def eval_null_transmission(self, si, active=True):
         return self.nested.eval_null_transmission(si, active)
 
+    def eval_diffuse_reflectance(self, si, active=True):
+        return self.nested.eval_diffuse_reflectance(si, active)
+
     def traverse(self, callback):
         self.nested.traverse(callback)
 

@@ -274,7 +274,8 @@ def plane_xml(material, centre, e1, e2, half) -> str:
 def test_rendered_room_corner_gives_its_three_creases(scene_file):
     """Two walls at 45 deg and a floor, seen from 3 m (world = sensor frame: y down), lit by a
     sun that reaches all three faces (so nothing casts a shadow), path traced at 400 x 300,
-    32 spp: FLD finds the three creases and the surfels' scan points each land on one face."""
+    32 spp, denoised: FLD finds the three creases and the surfels' scan points each land on one
+    face."""
     corner = np.array([0.0, 0.5, 3.0])  # where the creases meet, 0.575 m below the camera
     s = np.sqrt(0.5)
     material = ('<bsdf type="acoustic" id="m"><string name="preset" value="drywall"/>'
@@ -297,7 +298,7 @@ def test_rendered_room_corner_gives_its_three_creases(scene_file):
                          - camera.offset)  # far along each crease (up, towards the camera)
     expected = np.array([clip_to_box(junction, p, box) for p in far])
     assert len(segments) == 3
-    for e in expected:  # seeds 0-4: noise shortens ends at the junction by up to 9 px
+    for e in expected:  # raw 32 spp images, seeds 0-4: noise shortened ends by up to 9 px
         across, covered = np.array([offset_and_cover(f, e) for f in segments]).T
         k = np.argmin(across)
         assert across[k] <= 1.5 and covered[k] >= 0.9  # seed 0: <= 0.25 px, >= 0.98

@@ -235,13 +235,12 @@ def test_rendered_corner_gives_three_planes(corner_map):
     groups, one per face, meeting the surfel issue's targets ('paper' preset): normals within
     1 deg, planes within 1 cm of the true planes where the faces are (at the true corner), and
     the three planes meeting within 2 cm of it. Measured (seed 0, with the check pings and the
-    arrival-direction estimate): normals off by 0.12 deg (wall x = 2), 0.20 deg (wall y = 2),
-    0.14 deg (floor); planes 4.7, 3.1, 0.0 mm from the corner, which they locate within 5.6 mm
-    (without check pings: 0.60, 0.79, 0.31 deg; 1.2, 1.6, 0.2 mm; 2.0 mm). (Offsets d of
-    n . x = d, i.e. referred to the world origin 2.8-3.6 m away, are off by more: there a
-    0.5 deg tilt alone moves the plane by 2-3 cm.) Sonar points alone (``refine=False``, no
-    fill or check pings): 0.98, 0.56, 0.12 deg, 2.2 cm (1.6, 1.5, 1.1 deg, 6.2 cm with every
-    point on its beam's axis)."""
+    arrival-direction estimate, 8 spp denoised images): normals off by 0.07 deg (wall x = 2),
+    0.04 deg (wall y = 2), 0.04 deg (floor); planes 2.6, 2.8, 0.2 mm from the corner, which they
+    locate within 3.8 mm (without check pings: 0.09, 0.21, 0.04 deg; 2.4, 1.4, 0.3 mm; 2.8 mm).
+    (Offsets d of n . x = d, i.e. referred to the world origin 2.8-3.6 m away, are off by more:
+    there a 0.5 deg tilt alone moves the plane by 2-3 cm.) Sonar points alone
+    (``refine=False``, no fill or check pings): 1.91, 0.66, 0.02 deg, 2.7 cm."""
     surfel_map, planes = corner_map
     assert len(surfel_map.groups) == 3 and len(surfel_map.surfel_pose) == 9
     assert np.bincount(surfel_map.groups.label).tolist() == [3, 3, 3]
@@ -264,8 +263,8 @@ def test_rendered_corner_gives_three_planes(corner_map):
 @pytest.mark.slow
 def test_tilted_wall_is_reconstructed_tilted(tmp_path_factory):
     """The wall x = 2 leaning back 20 deg: its group's tilt from vertical is 20 deg within the
-    issue's 2 deg (measured 20.04 deg with the check pings, 19.86 deg without, seed 0; sonar
-    points alone: 19.33 deg, 23.4 deg with every point on its beam's axis)."""
+    issue's 2 deg (measured 20.03 deg with the check pings, 19.97 deg without, seed 0, 8 spp
+    denoised images; sonar points alone: 19.72 deg)."""
     surfel_map, planes = _reconstruct(tmp_path_factory, 20.0)
     assert len(surfel_map.groups) == 3
     errors, _ = plane_errors(surfel_map.groups, planes)
@@ -285,7 +284,7 @@ def test_shadow_across_a_wall_is_removed(tmp_path):
     edge across the wall. In every pose FLD finds it (within 2 px of its true image), it is
     removed as a shadow line, no registered surfel is built on it, the wall is one plane group
     and the regions on its two sides are one (no plane boundary along it). 'paper' preset,
-    400 x 300, 32 spp; about 20 s. (With the edge at 0.9 m, small surfels between it and the
+    400 x 300, 8 spp denoised; about 30 s. (With the edge at 0.9 m, small surfels between it and the
     top of the crop got normals 7 deg off and, grouped by normals, a group of their own: the line
     was kept. Grouped by their points' fit it is removed in every pose too: three groups, normals
     0.7-1.4 deg off, the corner within 2.7 cm.)"""
