@@ -914,11 +914,19 @@ def structure() -> SceneSpec:
     spec.enclosure(outer, wall, floor, ceiling, interior=interior, interior_mat=inner,
                    lights=lights)
     spec.ceiling_lights(lights, panel)
-    # Start facing wall_a, go through its doorway into the north-east room, turn south through
-    # wall_b's doorway into the south-east room, end facing wall_a from the east.
-    spec.trajectory = [(0.0, 0.0, 0.0), (1.0, 0.0, 0.0), (1.0, 0.0, 90.0), (1.0, 1.2, 90.0),
-                       (1.0, 1.2, 0.0), (5.7, 1.2, 0.0), (5.7, 1.2, -90.0), (5.7, -2.5, -90.0),
-                       (5.7, -2.5, -180.0), (4.5, -2.5, -180.0)]
+    # A survey for surfel scanning, which needs two or three creases meeting in the camera's
+    # view within the sonar's 5 m: the robot drives straight at room corners (stopping 2-3 m
+    # short) and turns on the spot between them. West room: its south-east corner, south-west
+    # corner, the corner of the west wall and the partition; then on towards wall_a's doorway
+    # (the west room's north-east corner on its left), through it into the north-east room
+    # (its east corners), south through wall_b's doorway into the south-east room (its east
+    # and west corners).
+    spec.trajectory = [(0.0, 0.0, 0.0), (0.0, 0.0, -53.0), (1.2, -1.6, -53.0),
+                       (1.2, -1.6, -153.0), (-1.5, -3.0, -153.0), (-1.5, -3.0, -246.0),
+                       (-2.3, -1.2, -246.0), (-2.3, -1.2, -324.0), (1.0, 1.2, -324.0),
+                       (1.0, 1.2, -360.0), (5.7, 1.2, -360.0), (5.7, 1.2, -315.0),
+                       (5.7, 1.2, -397.0), (5.7, 1.2, -450.0), (5.7, -2.5, -450.0),
+                       (5.7, -2.5, -388.0), (5.7, -2.5, -510.0)]
     return spec
 
 
