@@ -274,3 +274,21 @@ def _sphere(segments: int):
 
 
 _TESSELLATORS = {"Disk": _disk, "Cylinder": _cylinder, "Sphere": _sphere}
+
+
+# ---- small scenes written by scripts and tests ----------------------------------------------
+def material_xml(material: str, preset_name: str, reflectance: float | str) -> str:
+    """An ``acoustic`` BSDF ``material`` with the acoustic preset ``preset_name`` around a
+    diffuse BSDF of ``reflectance`` (a grey value in [0, 1], or "r, g, b")."""
+    return (f'<bsdf type="acoustic" id="{material}"><string name="preset" value="{preset_name}"/>'
+            f'<bsdf type="diffuse"><rgb name="reflectance" value="{reflectance}"/></bsdf></bsdf>')
+
+
+def rectangle_xml(material: str, centre, e1, e2, half) -> str:
+    """A rectangle centred at ``centre`` (3,) [m] spanning +-half[0] [m] along e1 and +-half[1]
+    [m] along e2 (directions, normalised here); its lit side faces e1 x e2."""
+    e1, e2 = (np.asarray(e, float) / np.linalg.norm(e) for e in (e1, e2))
+    m = np.column_stack([e1 * half[0], e2 * half[1], np.cross(e1, e2), centre])
+    rows = "  ".join(", ".join(f"{x:.9g}" for x in row) for row in m)
+    return (f'<shape type="rectangle"><transform name="to_world">'
+            f'<matrix value="{rows}  0, 0, 0, 1"/></transform><ref id="{material}"/></shape>')

@@ -8,7 +8,12 @@ inside the array's field of view, triangle surfels are built from segment pairs 
 pinged at its four scan pixels (:mod:`mitsonar.lines`; beam directions by (10)(11), parallel to
 the camera rays). A surfel is registered when all four beams detect an echo and the measured
 centroid lies within ``verify_threshold`` (0.15 m, the paper's) of the plane through the three
-other points; its points go to the world by (12) with the odometry pose.
+other points; its points go to the world by (12) with the odometry pose. Beyond the paper, the
+three outer points must also span at least ``min_spread`` of the triangle the aimed beams give
+at the measured ranges (:func:`spread_ratio`): four echoes bunched on one edge (a window frame
+answering for glass seen obliquely, which returns no echo) pass the coplanarity test whatever
+plane they are said to span, and such a surfel, tilted 36 deg on room_glass, pulled a window and
+the floor into one group.
 
 Plane optimisation (:func:`group_surfels`): the paper groups surfels whose normals agree
 (cosine similarity); here that is only the first, coarse gate (see the deviations below). Two
@@ -147,12 +152,15 @@ class SurfelSettings:
             scaled to ``image_width``.
         verify_threshold: largest distance of the measured centroid from the plane of the three
             other measured points for a surfel to be registered [m] (paper: 0.15 m).
+        min_spread: smallest :func:`spread_ratio` of a registered surfel (module docstring).
         merge_angle: coarse gate: largest angle between the normals of one plane group [rad],
             widened by ``merge_sigmas`` standard errors of the two normals.
         merge_sigmas: surfels share a plane when all their points lie within this many expected
             errors (``range_sigma``, ``angle_sigma``) of it (module docstring).
         max_normal_error: a group of one surfel whose normal's standard error exceeds this
             [rad] (a small noisy surfel) claims no image region: no plane is grown from it.
+        max_link_error: a surfel or group whose normal's standard error exceeds this [rad]
+            links no others into one group (:func:`_links`).
         barrier_extension: how far each segment is extended at both ends when drawn as a
             region barrier [pixels] (closes small gaps at junctions).
         barrier_width: thickness of the drawn barriers [pixels].
@@ -164,6 +172,8 @@ class SurfelSettings:
             plane (a floor grown through a doorway onto the wall behind it reached 10 m); no
             limit where planes are grown without a sonar (:func:`build_map` called directly).
         shadow_offset: distance across a segment at which its two sides are sampled [pixels].
+        remove_shadows: remove shadow lines (segments with one plane on both sides) and the
+            surfels built on them; False keeps every segment (for comparison).
         max_iterations: cap on the regroup/refit iterations.
         seed: seeds the images and the pings.
         fill_spacing: angular spacing of the fill pings inside a registered surfel [rad] (about
@@ -188,15 +198,18 @@ class SurfelSettings:
     spp: int = 8
     min_length: float | None = None
     verify_threshold: float = 0.15
+    min_spread: float = 0.5
     merge_angle: float = np.radians(10.0)
     merge_sigmas: float = 3.0
     max_normal_error: float = np.radians(5.0)
+    max_link_error: float = np.radians(20.0)
     barrier_extension: float = 4.0
     barrier_width: int = 3
     junction_gap: float = 25.0
     stride: int = 2
     max_range: float | None = None
     shadow_offset: float = 5.0
+    remove_shadows: bool = True
     max_iterations: int = 20
     seed: int = 0
     fill_spacing: float = np.radians(5.0)
@@ -222,9 +235,11 @@ class SurfelSettings:
         if self.min_length is not None:
             check_positive("SurfelSettings.min_length [pixels]", self.min_length)
         check_positive("SurfelSettings.verify_threshold [m]", self.verify_threshold)
+        check_range("SurfelSettings.min_spread", self.min_spread, 0.0, 1.0)
         check_range("SurfelSettings.merge_angle [rad]", self.merge_angle, 0.0, np.pi / 2)
         check_positive("SurfelSettings.merge_sigmas", self.merge_sigmas)
         check_range("SurfelSettings.max_normal_error [rad]", self.max_normal_error, 0.0, np.pi / 2)
+        check_range("SurfelSettings.max_link_error [rad]", self.max_link_error, 0.0, np.pi / 2)
         check_range("SurfelSettings.barrier_extension [pixels]", self.barrier_extension, 0, np.inf)
         check_range("SurfelSettings.junction_gap [pixels]", self.junction_gap, 0, np.inf)
         check_range("SurfelSettings.check_spacing [rad]", self.check_spacing, 0, np.pi / 2)
@@ -266,6 +281,21 @@ def verify(points, threshold: float = 0.15) -> tuple[np.ndarray, np.ndarray]:
     residual = np.abs(np.einsum("kc,kc->k", n, p[:, 3]) - d)
     residual = np.where(np.isfinite(residual), residual, np.inf)
     return residual <= threshold, residual
+
+
+def _triangle_areas(p) -> np.ndarray:
+    """Areas (k,) [m^2] of the triangles of the first three of points (k, >=3, 3)."""
+    return 0.5 * np.linalg.norm(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=-1)
+
+
+def spread_ratio(points, directions) -> np.ndarray:
+    """(k,) area of the triangle of the three outer measured points (k, 4, 3) [m] over the area
+    of the triangle the aimed unit directions (k, 4, 3) give at the same ranges (both in the
+    sensor frame); NaN where a point is missing."""
+    p = np.asarray(points, dtype=float)
+    aimed = np.asarray(directions, dtype=float) * np.linalg.norm(p, axis=-1, keepdims=True)
+    expected = _triangle_areas(aimed)
+    return _triangle_areas(p) / np.where(expected > 0, expected, np.nan)
 
 
 def fit_plane(points, towards=None) -> tuple[np.ndarray, float]:
@@ -364,6 +394,18 @@ def _fit_together(points, viewpoints, settings: SurfelSettings) -> np.ndarray:
     return inside & inside.T & (angle <= gate + 1e-12)
 
 
+def _links(points, viewpoints, settings: SurfelSettings) -> tuple[np.ndarray, np.ndarray]:
+    """Index pairs (i < j) of the point sets (u, m, 3) that :func:`_fit_together` puts on one
+    plane, leaving out sets whose normal's standard error exceeds ``max_link_error``: such a
+    set (a small surfel far away) fits several planes at once and would chain them into one
+    group (on room_glass a 13 cm surfel at 3.2 m, normal error about 50 deg, joined both
+    windows and the floor). It can still join the group whose plane fits it when the groups
+    are refitted."""
+    vague = _plane_stats(points, viewpoints, settings)[2] > settings.max_link_error
+    linked = _fit_together(points, viewpoints, settings) & ~vague[:, None] & ~vague[None, :]
+    return np.nonzero(np.triu(linked, k=1))
+
+
 @dataclass(frozen=True)
 class PlaneGroups:
     """Plane groups of surfels.
@@ -439,8 +481,7 @@ def group_surfels(points, viewpoints, settings: SurfelSettings = SurfelSettings(
     if extra is not None:
         p = np.concatenate([p, np.asarray(extra, dtype=float).reshape(len(p), -1, 3)], axis=1)
     seen = np.broadcast_to(view[:, None], p.shape)
-    i, j = np.nonzero(np.triu(_fit_together(p, seen, settings), k=1))
-    label = _components(len(p), i, j)
+    label = _components(len(p), *_links(p, seen, settings))
     surfel_normals, _, own_error = _plane_stats(p, seen, settings)
     z = settings.merge_sigmas
     for iteration in range(1, settings.max_iterations + 1):
@@ -455,8 +496,7 @@ def group_surfels(points, viewpoints, settings: SurfelSettings = SurfelSettings(
         moved = _relabel(np.where(fits.any(axis=1),
                                   np.argmin(np.where(fits, misfit, np.inf), axis=1), own))
         *_, pts, pts_view = _fit_groups(p, view, moved, settings)
-        a, b = np.nonzero(np.triu(_fit_together(pts, pts_view, settings), k=1))
-        merged = _components(int(moved.max()) + 1, a, b)[moved]
+        merged = _components(int(moved.max()) + 1, *_links(pts, pts_view, settings))[moved]
         if np.array_equal(merged, label):
             break
         label = merged
@@ -624,6 +664,9 @@ def scan_pose(sonar: Sonar, renderer: CameraRenderer, true_pose: Pose, odometry_
         points = odometry_pose.transform_points(scan.points_sensor).reshape(-1, 4, 3)
     accepted, residual = verify(points, settings.verify_threshold) if len(points) else \
         (np.zeros(0, bool), np.zeros(0))
+    if len(surfels):
+        spread = spread_ratio(scan.points_sensor.reshape(-1, 4, 3), directions.reshape(-1, 4, 3))
+        accepted &= np.nan_to_num(spread) >= settings.min_spread
     fill = np.full((len(surfels), settings.max_fill, 3), np.nan)
     pings = 4 * len(surfels)
     if settings.max_fill and np.any(accepted):
@@ -1097,6 +1140,8 @@ def build_map(scans, settings: SurfelSettings = SurfelSettings()) -> SurfelMap:
         groups = group_surfels(points, view, settings, extra)
         meshes = [grow_planes(s, s.segments[~r], groups, points, settings)
                   for s, r in zip(scans, shadow)]
+        if not settings.remove_shadows:
+            break
         found = [shadow_segments(replace_segments(s, ~r), m.regions, m.region_groups,
                                  settings.shadow_offset) for s, r, m in zip(scans, shadow, meshes)]
         new = [r.copy() for r in shadow]

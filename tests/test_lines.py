@@ -11,6 +11,7 @@ from mitsonar.camera import CameraModel, CameraRenderer
 from mitsonar.frames import direction_from_angles, fov_angles
 from mitsonar.lines import (_angle_neighbours, clip_segments, close_junctions, detect_segments,
                             fov_crop_box, merge_collinear, scan_directions, scan_pixels, triangle_surfels)
+from mitsonar.scene import material_xml, rectangle_xml
 from conftest import IDENTITY
 
 CAMERA = CameraModel()
@@ -262,15 +263,6 @@ def test_bad_inputs_name_the_parameter():
         scan_directions(CAMERA, np.zeros((3, 3)))
 
 
-def plane_xml(material, centre, e1, e2, half) -> str:
-    """A rectangle spanning +-half[0] along e1 and +-half[1] along e2, lit side e1 x e2."""
-    e1, e2 = (np.asarray(e, float) / np.linalg.norm(e) for e in (e1, e2))
-    m = np.column_stack([e1 * half[0], e2 * half[1], np.cross(e1, e2), centre])
-    rows = "  ".join(", ".join(f"{x:.9g}" for x in row) for row in m)
-    return (f'<shape type="rectangle"><transform name="to_world">'
-            f'<matrix value="{rows}  0, 0, 0, 1"/></transform><ref id="{material}"/></shape>')
-
-
 def test_rendered_room_corner_gives_its_three_creases(scene_file):
     """Two walls at 45 deg and a floor, seen from 3 m (world = sensor frame: y down), lit by a
     sun that reaches all three faces (so nothing casts a shadow), path traced at 400 x 300,
@@ -278,15 +270,14 @@ def test_rendered_room_corner_gives_its_three_creases(scene_file):
     face."""
     corner = np.array([0.0, 0.5, 3.0])  # where the creases meet, 0.575 m below the camera
     s = np.sqrt(0.5)
-    material = ('<bsdf type="acoustic" id="m"><string name="preset" value="drywall"/>'
-                '<bsdf type="diffuse"><rgb name="reflectance" value="0.7"/></bsdf></bsdf>')
+    material = material_xml("m", "drywall", 0.7)
     sun = ('<emitter type="directional"><vector name="direction" x="0.537" y="0.447" z="0.716"/>'
            '<rgb name="irradiance" value="1"/></emitter>')
     scene = mitsonar.load_scene(scene_file(
         "corner", material, sun,
-        plane_xml("m", corner + [-3 * s, 0, -3 * s], [0, 1, 0], [1, 0, 1], (6, 4.3)),  # left wall
-        plane_xml("m", corner + [3 * s, 0, -3 * s], [-1, 0, 1], [0, 1, 0], (4.3, 6)),  # right wall
-        plane_xml("m", corner, [1, 0, 0], [0, 0, 1], (10, 10))))  # floor
+        rectangle_xml("m", corner + [-3 * s, 0, -3 * s], [0, 1, 0], [1, 0, 1], (6, 4.3)),  # left wall
+        rectangle_xml("m", corner + [3 * s, 0, -3 * s], [-1, 0, 1], [0, 1, 0], (4.3, 6)),  # right wall
+        rectangle_xml("m", corner, [1, 0, 0], [0, 0, 1], (10, 10))))  # floor
     camera = CameraModel(spp=32).at_resolution(400)
     images = CameraRenderer(scene, camera).render(IDENTITY, seed=0)
     gray = (images.gray / images.gray.max()) ** (1 / 2.2)  # display-like tone map

@@ -9,8 +9,8 @@ from mitsonar.camera import CameraModel
 from mitsonar.surfels import (CheckPings, PlaneGroups, PoseScan, SurfelSettings, fit_plane,
                               group_surfels, grow_planes, map_surfels, region_labels,
                               shadow_segments, verify)
+from mitsonar.scene import material_xml, rectangle_xml
 from conftest import write_scene
-from test_lines import plane_xml
 
 
 def test_verification_rejects_a_surfel_straddling_two_planes():
@@ -164,11 +164,6 @@ SUN = ('<emitter type="directional"><vector name="direction" x="0.45" y="0.45" z
        '<rgb name="irradiance" value="1"/></emitter>')
 
 
-def _material(mat_id, preset, reflectance):
-    return (f'<bsdf type="acoustic" id="{mat_id}"><string name="preset" value="{preset}"/>'
-            f'<bsdf type="diffuse"><rgb name="reflectance" value="{reflectance}"/></bsdf></bsdf>')
-
-
 def corner_scene(scene_file, tilt_deg=0.0, *extra):
     """Walls x = 2 (leaning back by ``tilt_deg`` about its crease with the floor) and y = 2,
     drywall, and a concrete floor z = 0, lit by a sun that reaches all three (no shadows; the
@@ -179,11 +174,12 @@ def corner_scene(scene_file, tilt_deg=0.0, *extra):
     n_x = np.cross(up, [0, 1, 0])
     to_sun = -np.array([0.45, 0.45, -0.77]) / np.linalg.norm([0.45, 0.45, -0.77])
     path = scene_file(  # wall_x's albedo keeps its brightness (0.225 x irradiance) at any tilt
-        "corner", _material("wall_x", "drywall", round(0.225 / (n_x @ to_sun), 3)), _material("wall_y", "drywall", 0.8),
-        _material("floor", "concrete", 0.15), SUN, *extra,
-        plane_xml("wall_x", CREASE + [0, -3, 0] + 1.6 * up, up, [0, 1, 0], (1.6, 3)),
-        plane_xml("wall_y", CREASE + [-3, 0, 1.5], [1, 0, 0], [0, 0, 1], (4, 1.5)),
-        plane_xml("floor", CREASE + [-3, -3, 0], [1, 0, 0], [0, 1, 0], (3, 3)))
+        "corner", material_xml("wall_x", "drywall", round(0.225 / (n_x @ to_sun), 3)),
+        material_xml("wall_y", "drywall", 0.8), material_xml("floor", "concrete", 0.15), SUN,
+        *extra,
+        rectangle_xml("wall_x", CREASE + [0, -3, 0] + 1.6 * up, up, [0, 1, 0], (1.6, 3)),
+        rectangle_xml("wall_y", CREASE + [-3, 0, 1.5], [1, 0, 0], [0, 0, 1], (4, 1.5)),
+        rectangle_xml("floor", CREASE + [-3, -3, 0], [1, 0, 0], [0, 1, 0], (3, 3)))
     planes = {"wall_x": (n_x, float(n_x @ CREASE)), "wall_y": (np.array([0, -1.0, 0]), -2.0),
               "floor": (np.array([0, 0, 1.0]), 0.0)}
     return path, planes
@@ -291,7 +287,7 @@ def test_shadow_across_a_wall_is_removed(tmp_path):
     lamp = ('<emitter type="directional"><vector name="direction" x="1" y="0" z="0"/>'
             '<rgb name="irradiance" value="1.5"/></emitter>')
     top = 3.5
-    board = plane_xml("wall_y", [-2.0, -0.75, (SHADOW_HEIGHT + top) / 2], [0, 1, 0], [0, 0, 1],
+    board = rectangle_xml("wall_y", [-2.0, -0.75, (SHADOW_HEIGHT + top) / 2], [0, 1, 0], [0, 0, 1],
                       (3.25, (top - SHADOW_HEIGHT) / 2))
 
     def scene_file(name, *parts):
