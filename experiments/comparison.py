@@ -196,7 +196,8 @@ def main(argv=None) -> int:
                         help="robot poses per scene, spread over its trajectory (default 16)")
     parser.add_argument("--width", type=int, default=800,
                         help="surfel camera image width [pixels] (default 800)")
-    parser.add_argument("--spp", type=int, default=32, help="surfel camera samples per pixel")
+    parser.add_argument("--spp", type=int, default=8,
+                        help="surfel camera samples per pixel (default 8, denoised)")
     parser.add_argument("--step", type=float, default=5.0, help="OFDM beam grid step [deg]")
     parser.add_argument("--preset", choices=("default", "paper"), default="paper",
                         help="sonar model (SonarConfig.preset; default paper)")
