@@ -12,7 +12,9 @@ from mitsonar.voxelmap import (VoxelMap, VoxelMapSettings, bilinear_sample, colo
                                statistical_outliers, voxelise)
 from conftest import material_xml
 
-SMALL = CameraModel(spp=1).at_resolution(160)  # 160 x 120, f = 133.3 px
+# 160 x 120, f = 133.3 px; the raw render, exact at one sample per pixel (a denoiser would
+# smooth the checker)
+SMALL = CameraModel(spp=1, denoise=False).at_resolution(160)
 
 # Checkerboard on a 4 m x 4 m wall at y = 2.5 m facing -y: 16 x 16 squares of 0.25 m.
 WALL_Y, WALL_CENTRE_Z, WALL_HALF, SQUARES = 2.5, 0.55, 2.0, 16
@@ -106,7 +108,7 @@ def test_points_on_a_rendered_checker_wall_get_their_squares_colour(checker_wall
     assert error <= 0.5 / 255  # half an 8-bit step (measured: float32 rounding, ~1e-7)
     # Both squares' colours occur, and a camera without its 7.5 cm offset gets many wrong.
     assert len(np.unique(np.round(frame.colours[interior] * 255), axis=0)) == 2
-    no_offset = CameraModel(spp=1, offset=np.zeros(3)).at_resolution(160)
+    no_offset = CameraModel(spp=1, offset=np.zeros(3), denoise=False).at_resolution(160)
     wrong = colourise(points_sensor, poses, image, no_offset, reference)
     mismatch = np.abs(wrong.colours[interior] - expected[interior]).max(axis=1) > 0.5 / 255
     assert mismatch.mean() > 0.2
