@@ -182,10 +182,9 @@ def detect_segments(gray, box=None, min_length: float = 50.0, *,
     u0, v0 = max(box[0] - context, 0), max(box[1] - context, 0)
     u1, v1 = min(box[2] + context, w), min(box[3] + context, h)
     crop = np.ascontiguousarray(image[v0:v1, u0:u1])
-    automatic = edge_threshold(crop, blur_sigma) if canny_low is None or canny_high is None \
-        else None
-    canny_low = automatic if canny_low is None else canny_low
-    canny_high = automatic if canny_high is None else canny_high
+    if canny_low is None or canny_high is None:
+        automatic = edge_threshold(crop, blur_sigma)
+        canny_low, canny_high = (automatic if c is None else c for c in (canny_low, canny_high))
     if blur_sigma > 0:
         crop = cv2.GaussianBlur(crop, (0, 0), blur_sigma)
     fld = cv2.ximgproc.createFastLineDetector(int(fld_length), float(fld_distance),
