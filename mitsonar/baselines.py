@@ -21,6 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .frames import SENSOR_MOUNT_TRANSLATION, Pose
+from .jit import rays
 from .scene import AcousticScene, load_scene, mitsuba, optically_transparent
 from .validation import check_finite, check_positive, check_range
 
@@ -81,9 +82,7 @@ class _OpaqueCaster:
         shape = np.full(len(d), -1)
         active = np.arange(len(d))
         for _ in range(self.max_crossings + 1):  # one vectorised intersection per layer
-            ray = mi.Ray3f(mi.Point3f(*[mi.Float(o[active, k]) for k in range(3)]),
-                           mi.Vector3f(*[mi.Float(d[active, k]) for k in range(3)]))
-            si = self.scene.scene.ray_intersect(ray)
+            si = self.scene.scene.ray_intersect(rays(o[active], d[active]))
             valid_dr = si.is_valid()
             dr.eval(si.p, si.n, si.shape, valid_dr)
             valid = np.asarray(valid_dr, dtype=bool)

@@ -26,6 +26,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from .frames import Pose
+from .jit import rays
 from .scene import AcousticScene, mitsuba
 from .validation import check_positive
 
@@ -213,9 +214,7 @@ class CameraRenderer:
         d_cam = self.model.pixel_rays()
         d = camera_pose.transform_vectors(d_cam).reshape(-1, 3)
         o = camera_pose.translation
-        ray = mi.Ray3f(mi.Point3f(*[mi.Float(np.full(len(d), o[k])) for k in range(3)]),
-                       mi.Vector3f(*[mi.Float(d[:, k]) for k in range(3)]))
-        si = self.scene.scene.ray_intersect(ray)
+        si = self.scene.scene.ray_intersect(rays(o, d))
         valid = si.is_valid()
         dr.eval(si.t, si.shape, valid)
         t = np.where(np.asarray(valid, bool), np.asarray(si.t, float), np.inf)

@@ -33,8 +33,9 @@ from pathlib import Path
 import numpy as np
 
 from .io import atomic_path, write_json
+from .jit import rays
 from .plots import save_png
-from .scene import AcousticScene, SceneMesh, mitsuba
+from .scene import AcousticScene, SceneMesh
 from .validation import check_finite, check_positive
 
 #: The paper's accuracy threshold [m].
@@ -160,7 +161,6 @@ def visible_from(scene: AcousticScene, points, viewpoints, max_range: float = np
     The sight line stops 1 mm short of the point so its own surface does not hide it."""
     import drjit as dr
 
-    mi = mitsuba()
     p = np.asarray(points, dtype=float).reshape(-1, 3)
     views = np.asarray(viewpoints, dtype=float).reshape(-1, 3)
     check_finite("viewpoints [m]", views)
@@ -174,10 +174,7 @@ def visible_from(scene: AcousticScene, points, viewpoints, max_range: float = np
         if len(todo) == 0:  # Dr.Jit aborts on empty rays
             continue
         d = w / dist[:, None]
-        ray = mi.Ray3f(mi.Point3f(*[mi.Float(np.full(len(d), v[k])) for k in range(3)]),
-                       mi.Vector3f(*[mi.Float(d[:, k]) for k in range(3)]),
-                       mi.Float(dist - 1e-3), mi.Float(0.0), [])
-        blocked = scene.scene.ray_test(ray)
+        blocked = scene.scene.ray_test(rays(v, d, dist - 1e-3))
         dr.eval(blocked)
         seen[todo] = ~np.asarray(blocked, dtype=bool)
     return seen

@@ -98,7 +98,8 @@ class DetectionSettings:
         if not 0 < self.part_balance <= 1:
             raise ValueError(f"DetectionSettings.part_balance must be in (0, 1], got {self.part_balance}")
         if int(self.max_candidates) != self.max_candidates or self.max_candidates < 1:
-            raise ValueError(f"DetectionSettings.max_candidates must be an integer >= 1")
+            raise ValueError(f"DetectionSettings.max_candidates must be an integer >= 1, "
+                             f"got {self.max_candidates}")
 
 
 @dataclass(frozen=True)
@@ -330,8 +331,9 @@ class EchoProcessor:
         check, locate = s.ghost_margin > 0, s.arrival_step > 0
         looks = [(self._baseband(spectra, n, start_time, carrier), carrier)
                  for spectra, carrier in looks] if check or locate else []
-        if looks and check:  # a candidate must pass in every look
-            candidates = candidates[~self._arrives_off_beam(looks, candidates, u)][:1]
+        if looks and check:  # the strongest candidate that passes in every look
+            candidates = next((candidates[c: c + 1] for c in range(len(candidates))
+                               if not self._arrives_off_beam(looks, candidates[c: c + 1], u)[0]), [])
         if len(candidates) == 0:
             return Detection(False, np.nan, np.nan, np.nan, nan3, nan3, amplitude, level)
         k = int(candidates[0])

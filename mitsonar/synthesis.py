@@ -20,6 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.fft as sfft
 
+from .jit import to_jit
 from .transducer import Transducer
 from .validation import check_finite, check_positive
 
@@ -81,27 +82,6 @@ class Paths:
         channel = self.channel.reshape(-1, n_tx, n_rx)[:, 0, :].ravel()
         return (Paths(c.sum(axis=1).ravel(), centre.ravel(), channel),
                 Paths(np.einsum("hij,hij->hj", c, offset).ravel(), centre.ravel(), channel))
-
-    @classmethod
-    def from_factors(cls, tx_gain, tx_delay, rx_gain, rx_delay, mid_gain=None) -> "Paths":
-        """Expand factorised paths: gain = tx_gain[h,i] rx_gain[h,j] mid_gain, delay = sum.
-
-        Args:
-            tx_gain, tx_delay: (H, N_tx) per hit and transmit element.
-            rx_gain, rx_delay: (H, N_rx) per hit and receive element.
-            mid_gain: scattering factor, (H,) per hit or (H, N_tx, N_rx) per path; default 1.
-        """
-        tx_gain = np.asarray(tx_gain)
-        rx_gain = np.asarray(rx_gain)
-        h, n_tx = tx_gain.shape
-        n_rx = rx_gain.shape[1]
-        gain = tx_gain[:, :, None] * rx_gain[:, None, :]
-        if mid_gain is not None:
-            mid_gain = np.asarray(mid_gain)
-            gain = gain * (mid_gain[:, None, None] if mid_gain.ndim == 1 else mid_gain)
-        delay = np.asarray(tx_delay)[:, :, None] + np.asarray(rx_delay)[:, None, :]
-        channel = np.broadcast_to(np.arange(n_rx), (h, n_tx, n_rx))
-        return cls(gain.ravel(), delay.ravel(), channel.ravel(), (n_tx, n_rx))
 
     @classmethod
     def concatenate(cls, parts) -> "Paths":
@@ -269,9 +249,9 @@ class EchoSynthesizer:
         # Quantum 2^-36 of the largest gain: up to 2^25 terms of that size cannot overflow int64,
         # and the rounding (1.5e-11 relative per term) is far below the synthesis tolerance.
         scale = 2.0 ** (36 - np.ceil(np.log2(peak)))
-        pos = Float64(u[keep])
-        gain_re, gain_im = Float64(gain.real * scale), Float64(gain.imag * scale)
-        row = Int64(channel) * self.n_fft
+        pos = to_jit(Float64, u[keep])
+        gain_re, gain_im = to_jit(Float64, gain.real * scale), to_jit(Float64, gain.imag * scale)
+        row = to_jit(Int64, channel) * self.n_fft
         base = Int64(dr.floor(pos))
         acc_re = dr.zeros(Int64, size)
         acc_im = dr.zeros(Int64, size)

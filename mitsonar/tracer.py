@@ -27,7 +27,8 @@ The paper's model (``model='paper'``) instead takes 5 x 5 point reflectors 1.25 
 the beam with amplitude alpha beta R (1)(3): alpha the receive aperture's solid angle over 2 pi,
 beta ``paper_beta``, R the energy coefficient (4); no air absorption unless asked for.
 
-Everything after the intersections is NumPy on (hits x elements) arrays; no Python loop runs over
+Everything after the intersections is NumPy on (hits x elements) arrays, kept factored per transmit
+and receive element (:class:`~mitsonar.hitpaths.HitPaths`); no Python loop runs over
 rays, paths or samples.
 """
 
@@ -41,6 +42,8 @@ from scipy.ndimage import binary_dilation
 
 from .array import APERTURE, ArrayGeometry
 from .frames import Pose, orthonormal_basis
+from .hitpaths import HitPaths
+from .jit import rays
 from .medium import Medium
 from .scene import AcousticScene, mitsuba
 from .signals import Pulse
@@ -123,13 +126,13 @@ class TraceResult:
     """Paths of one beam and the reflectors that produced them.
 
     Attributes:
-        paths: all echo paths (crosstalk not included).
+        paths: all echo paths (crosstalk not included), factored per element pair.
         hit_points: (H, 3) first-bounce reflector positions in the sensor frame [m].
         hit_materials: (H,) material index per hit (into ``AcousticScene.materials``).
         ray_count: rays traced for this beam.
     """
 
-    paths: Paths
+    paths: HitPaths
     hit_points: np.ndarray
     hit_materials: np.ndarray
     ray_count: int
@@ -142,14 +145,6 @@ def _warped_grid(n: int, half_extent: float, sigma: float, floor: float):
     cdf = np.concatenate([[0.0], np.cumsum(0.5 * (density[1:] + density[:-1]) * np.diff(a))])
     edges = np.interp(np.linspace(0.0, cdf[-1], n + 1), cdf, a)
     return 0.5 * (edges[1:] + edges[:-1]), np.diff(edges)
-
-
-def _sinc(x):
-    """np.sinc in single precision: within 1e-7 of the peak for |x| < 1e3 and ~10x faster."""
-    x = np.asarray(x, dtype=np.float32)
-    pix = np.float32(np.pi) * x
-    small = np.abs(x) < 1e-4
-    return np.where(small, np.float32(1.0), np.sin(pix) / np.where(small, np.float32(1.0), pix))
 
 
 def _rows_dot(a, b):
@@ -223,7 +218,6 @@ class AcousticTracer:
 
         Returns t (inf: miss), p, n (world), material index (-1: miss) and shape registry id.
         """
-        mi = self.mi
         n_rays = len(origins)
         t_total = np.zeros(n_rays)
         t = np.full(n_rays, np.inf)
@@ -234,9 +228,7 @@ class AcousticTracer:
         active = np.arange(n_rays)
         o = origins.copy()
         for _ in range(_MAX_TRANSPARENT_LAYERS):  # loop over layers, each vectorised over rays
-            ray = mi.Ray3f(mi.Point3f(*[mi.Float(o[active, k]) for k in range(3)]),
-                           mi.Vector3f(*[mi.Float(directions[active, k]) for k in range(3)]))
-            si = self.scene.scene.ray_intersect(ray)
+            si = self.scene.scene.ray_intersect(rays(o[active], directions[active]))
             valid_dr = si.is_valid()
             dr.eval(si.t, si.p, si.n, si.shape, valid_dr)  # one kernel launch for all outputs
             valid = np.asarray(valid_dr, dtype=bool)
@@ -261,12 +253,22 @@ class AcousticTracer:
         return t, p, nrm, mat, shape
 
     def _visible(self, points, targets):
-        """(len(points),) True where the segment point -> target (world) is unobstructed."""
+        """(len(points),) True where the segment point -> target (world) is unobstructed.
+
+        One any-hit test per segment; only the blocked ones, if the scene has acoustically
+        transparent surfaces, are traced again through them."""
         seg = targets - points
         dist = np.linalg.norm(seg, axis=-1)
         d = seg / dist[:, None]
-        t = self._intersect(points + _EPS * d, d)[0]
-        return t >= dist - 2 * _EPS
+        start = points + _EPS * d
+        blocked = self.scene.scene.ray_test(rays(start, d, dist - 2 * _EPS))
+        dr.eval(blocked)
+        visible = ~np.asarray(blocked, dtype=bool)
+        recheck = np.flatnonzero(~visible) if self._transparent.any() else []
+        if len(recheck):
+            visible[recheck] = self._intersect(start[recheck], d[recheck])[0] \
+                >= dist[recheck] - 2 * _EPS
+        return visible
 
     # ---- physics ---------------------------------------------------------------------------
     def _reflection(self, mats, cos_incidence):
@@ -306,7 +308,7 @@ class AcousticTracer:
         return gain, r / self.c, v / r[..., None]
 
     def _scatter(self, points, normals, mats, d_in, dd1, dd2, t_unfold, tx_virtual, departure,
-                 steering, extra_gain, visible, rng) -> list:
+                 steering, extra_gain, visible, rng) -> HitPaths:
         """Paths re-radiated by patches (see module docstring). All inputs are per hit.
 
         Incidence and emergence angles, reflection coefficients and the phase gradient of the
@@ -316,8 +318,8 @@ class AcousticTracer:
         g = self.geometry
         tx_gain, tx_delay, w = self._tx_factors(points, tx_virtual, departure, steering)
         rx_gain, rx_delay, v = self._rx_factors(points, visible)
-        cos_in = -np.einsum("hik,hk->hi", w, normals)  # (H, N_tx)
-        cos_out = -np.einsum("hjk,hk->hj", v, normals)  # (H, N_rx)
+        cos_in = -np.matmul(w, normals[:, :, None])[..., 0]  # (H, N_tx)
+        cos_out = -np.matmul(v, normals[:, :, None])[..., 0]  # (H, N_rx)
         tx_ok = cos_in > 0
         rx_ok = cos_out > 0
         if self.settings.model == "paper":
@@ -327,7 +329,7 @@ class AcousticTracer:
                 / (2 * np.pi * r_out**2)
             energy_r = self._reflection(mats, np.ones(len(mats))) ** 2  # equation (4)
             mid = alpha * self.settings.paper_beta * energy_r * extra_gain
-            return [Paths.from_factors(tx_gain * tx_ok, tx_delay, rx_gain * rx_ok, rx_delay, mid)]
+            return HitPaths.point_reflectors(tx_gain * tx_ok, tx_delay, rx_gain * rx_ok, rx_delay, mid)
         r = self._reflection(mats[:, None], cos_in)  # (H, N_tx)
         s = self._scattering[mats]
         # Patch edges on the tangent plane from the ray differentials (unfolded distance).
@@ -338,27 +340,18 @@ class AcousticTracer:
         # Patch integral of exp(-j k (r_i + r_j)) over the parallelogram: A sinc(.) sinc(.),
         # the phase gradient being w_i + v_j; sinc arguments split into TX and RX parts.
         half_k = 0.5 * self.k / np.pi  # np.sinc(x) = sin(pi x) / (pi x)
-        a1 = half_k * np.einsum("hik,hk->hi", w, e1)
-        a2 = half_k * np.einsum("hik,hk->hi", w, e2)
-        b1 = half_k * np.einsum("hjk,hk->hj", v, e1)
-        b2 = half_k * np.einsum("hjk,hk->hj", v, e2)
-        patch = _sinc(a1[:, :, None] + b1[:, None, :]) * _sinc(a2[:, :, None] + b2[:, None, :])
-        obliquity = cos_in[:, :, None] + cos_out[:, None, :]
-        scale = 1j * self.k / (4 * np.pi) * area * np.sqrt(1 - s) * extra_gain
-        specular = scale[:, None, None] * obliquity * patch
-        tx_s, rx_s = tx_gain * r * tx_ok, rx_gain * rx_ok
-        gain = tx_s[:, :, None] * rx_s[:, None, :] * specular
-        if np.any(s > 0):
-            # Lambert: |r| sqrt(s A cos_in cos_out / pi), with a random phase per patch (surface
-            # roughness; constant over the narrow band of the pulse), so it shares the delays.
-            roughness = np.exp(2j * np.pi * rng.uniform(0.0, 1.0, len(points)))
-            tx_d = tx_gain * np.abs(r) * np.sqrt(np.clip(cos_in, 0, None))
-            rx_d = rx_gain * np.sqrt(np.clip(cos_out, 0, None))
-            mid = np.sqrt(s * area / np.pi) * extra_gain * roughness
-            gain = gain + tx_d[:, :, None] * rx_d[:, None, :] * mid[:, None, None]
-        delay = tx_delay[:, :, None] + rx_delay[:, None, :]
-        channel = np.broadcast_to(np.arange(g.rx.count), gain.shape)
-        return [Paths(gain.ravel(), delay.ravel(), channel.ravel(), (g.tx.count, g.rx.count))]
+        edges = half_k * np.stack([e1, e2], axis=2)  # (H, 3, 2)
+        tx_sinc, rx_sinc = np.matmul(w, edges), np.matmul(v, edges)
+        specular = 1j * self.k / (4 * np.pi) * area * np.sqrt(1 - s) * extra_gain
+        # Lambert: |r| sqrt(s A cos_in cos_out / pi), with a random phase per patch (surface
+        # roughness; constant over the narrow band of the pulse), so it shares the delays.
+        roughness = np.exp(2j * np.pi * rng.uniform(0.0, 1.0, len(points))) if np.any(s > 0) \
+            else np.ones(len(points))
+        diffuse = np.sqrt(s * area / np.pi) * extra_gain * roughness
+        return HitPaths(tx_delay, rx_delay, tx_gain * r * tx_ok, rx_gain * rx_ok, specular,
+                        cos_in, cos_out, tx_sinc, rx_sinc,
+                        tx_gain * np.abs(r) * np.sqrt(np.clip(cos_in, 0, None)),
+                        rx_gain * np.sqrt(np.clip(cos_out, 0, None)), diffuse)
 
     # ---- public ----------------------------------------------------------------------------
     def _cast(self, sensor_pose: Pose, u, e1, e2, a, b):
@@ -443,12 +436,12 @@ class AcousticTracer:
         inv = (1.0 / norm_v[hit])[:, None]
         dd1 = (e1[None] - d_h * (d_h @ e1)[:, None]) * inv * wa[hit][:, None]
         dd2 = (e2[None] - d_h * (d_h @ e2)[:, None]) * inv * wb[hit][:, None]
-        parts = self._scatter(x, n, mats_h, d_h, dd1, dd2, t[hit], tx_virtual, x, steering,
-                              taper.astype(complex), visible, rng)
+        parts = [self._scatter(x, n, mats_h, d_h, dd1, dd2, t[hit], tx_virtual, x, steering,
+                               taper.astype(complex), visible, rng)]
         if self.settings.max_bounces == 2 and self.settings.model == "physical":
             parts += self._second_bounce(sensor_pose, x, n, mats_h, d_h, dd1, dd2, t[hit],
                                          taper, steering, rng)
-        paths = Paths.concatenate(parts)
+        paths = HitPaths.concatenate(parts)
         return TraceResult(paths, x, mats_h, int(keep.sum()))
 
     def _visibility(self, sensor_pose: Pose, points, normals) -> np.ndarray:
@@ -462,7 +455,7 @@ class AcousticTracer:
         return vis.reshape(len(points), len(rx)).astype(float)
 
     def _second_bounce(self, sensor_pose, x1, n1, mats1, d1, dd1, dd2, t1, taper, steering,
-                       rng) -> list:
+                       rng) -> list[HitPaths]:
         """Specular continuation of every first-bounce ray, scattered at its second hit."""
         reflect = lambda v: v - 2 * _rows_dot(v, n1)[:, None] * n1  # noqa: E731
         d2 = reflect(d1)
@@ -485,9 +478,9 @@ class AcousticTracer:
         visible = self._visibility(sensor_pose, x2, n2)
         n1h = n1[hit]
         refl = lambda v: v - 2 * _rows_dot(v, n1h)[:, None] * n1h  # noqa: E731
-        return self._scatter(x2, n2, mats[hit], d2h, refl(dd1[hit]), refl(dd2[hit]),
-                             t1[hit] + t[hit] + _EPS, tx_image, plane_pt, steering,
-                             (taper[hit] * r1).astype(complex), visible, rng)
+        return [self._scatter(x2, n2, mats[hit], d2h, refl(dd1[hit]), refl(dd2[hit]),
+                              t1[hit] + t[hit] + _EPS, tx_image, plane_pt, steering,
+                              (taper[hit] * r1).astype(complex), visible, rng)]
 
     def direct_paths(self, direction) -> Paths:
         """Direct transmitter -> receiver paths (cross-talk) for a beam steered to ``direction``."""

@@ -102,6 +102,23 @@ def test_glass_pane_returns_an_echo_at_its_distance(scene_file):
     assert det.detected and abs(det.depth - 2.0) <= 5e-3, det
 
 
+def test_acoustically_transparent_sheet_changes_nothing(scene_file):
+    """An 'air' sheet between the array and a wall is stepped through by the rays and by the
+    shadow rays back to the receivers: the echoes equal those of the bare wall (same rays, same
+    seed) up to the single-precision hit points, and no hit lies on the sheet."""
+    wall = rectangle_xml("wall", (0, 0, 1.2))
+    bare = mitsonar.Sonar(scene_file("bare", material_xml("wall", preset="concrete"), wall), QUIET)
+    sheet = mitsonar.Sonar(scene_file("sheet", material_xml("wall", preset="concrete"),
+                                      material_xml("air", preset="air"), wall,
+                                      rectangle_xml("air", (0, 0, 0.6))), QUIET)
+    a, b = bare.ping(IDENTITY, BROADSIDE), sheet.ping(IDENTITY, BROADSIDE)
+    assert np.all(np.abs(b.trace.hit_points[:, 2] - 1.2) < 1e-4)
+    assert len(b.trace.hit_points) == len(a.trace.hit_points)
+    peak = np.abs(a.recording.samples).max()
+    assert np.abs(a.recording.samples - b.recording.samples).max() < 1e-4 * peak  # measured 2.5e-5
+    assert b.detection.detected and abs(b.detection.depth - a.detection.depth) < 1e-5  # [m]
+
+
 @pytest.mark.slow
 def test_beam_steering_finds_small_target_and_matches_main_lobe(scene_file):
     """A 10 cm sphere at 4 m, 8 deg right and 4 deg up: scan horizontal and vertical cuts."""

@@ -7,7 +7,7 @@ import pytest
 
 import mitsonar
 from mitsonar.scene import DefaultMaterialWarning, SceneError
-from conftest import material_xml, rectangle_xml, write_scene
+from conftest import material_xml, rectangle_xml
 
 Z_AIR = mitsonar.Medium().impedance
 

@@ -1,0 +1,50 @@
+"""Moving arrays from NumPy to Dr.Jit's LLVM backend without recompiling kernels.
+
+Dr.Jit's LLVM backend specialises a kernel on the memory alignment of its input buffers. NumPy
+arrays come at whatever alignment the allocator gave them, so a kernel fed straight from NumPy
+is compiled anew for many combinations of its inputs' alignments (up to 2^inputs variants, up to
+seconds each for a large kernel). :func:`to_jit` copies through an aligned buffer, so each kernel
+compiles once and is then reused (and loaded from Dr.Jit's disk cache in later runs).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+#: Alignment of the buffers handed to Dr.Jit [bytes] (a cache line; covers AVX-512 loads).
+ALIGNMENT = 64
+
+
+def to_jit(array_type, values):
+    """A flat Dr.Jit LLVM array of ``array_type`` (e.g. ``drjit.llvm.Float``) holding ``values``
+    (any shape, flattened, converted to the type's precision), from an ``ALIGNMENT``-byte
+    aligned copy."""
+    import drjit as dr
+
+    v = dr.VarType
+    dtype = np.dtype({v.Float32: np.float32, v.Float64: np.float64, v.Int32: np.int32,
+                      v.UInt32: np.uint32, v.Int64: np.int64, v.UInt64: np.uint64,
+                      v.Bool: np.bool_}[dr.type_v(array_type)])
+    flat = np.asarray(values).ravel()
+    raw = np.empty(flat.size * dtype.itemsize + ALIGNMENT, np.uint8)
+    start = -raw.ctypes.data % ALIGNMENT
+    aligned = raw[start: start + flat.size * dtype.itemsize].view(dtype)
+    aligned[:] = flat
+    return array_type(aligned)
+
+
+
+def rays(origins, directions, max_distance=None):
+    """A Mitsuba ``Ray3f`` batch from origins (N, 3) or one origin (3,) and unit directions
+    (N, 3) [m], world frame; ``max_distance`` (N,) [m] optional. Inputs are copied aligned
+    (:func:`to_jit`)."""
+    from .scene import mitsuba
+
+    mi = mitsuba()
+    d = np.asarray(directions, dtype=float).reshape(-1, 3)
+    o = np.broadcast_to(np.asarray(origins, dtype=float), d.shape)
+    point = mi.Point3f(*[to_jit(mi.Float, o[:, k]) for k in range(3)])
+    vector = mi.Vector3f(*[to_jit(mi.Float, d[:, k]) for k in range(3)])
+    if max_distance is None:
+        return mi.Ray3f(point, vector)
+    return mi.Ray3f(point, vector, to_jit(mi.Float, max_distance), mi.Float(0.0), [])
