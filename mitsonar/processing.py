@@ -45,6 +45,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.fft as sfft
+from scipy import sparse
 
 from .array import ArrayGeometry
 from .frames import direction_from_fov_angles, fov_angles
@@ -155,6 +156,7 @@ class EchoProcessor:
         self.settings = settings
         self.noise_rms = float(noise_rms)
         self._filters = {}
+        self._ghost_operators = {}  # carrier [Hz] -> delay-and-sum over the side-lobe grid
 
     def _matched_filter(self, waveform=None):
         """(filter spectrum, template energy) of a waveform: 2 conj(W) / E, E = sum |w_a|^2."""
@@ -192,14 +194,13 @@ class EchoProcessor:
         n = recording.samples.shape[1]
         return np.abs(self.beamform(self.compressed_spectra(recording, waveform), n, direction))
 
-    def _ghost_directions(self, direction) -> np.ndarray:
-        """Receive directions (D, 3) in front of the array, outside the beam's main lobe."""
+    def _ghost_grid(self) -> np.ndarray:
+        """Receive directions (D, 3) checked for side-lobe arrivals: a ``ghost_grid_step`` grid
+        over +-``ghost_half_span`` in both field-of-view angles (the same for every beam)."""
         step, span = self.settings.ghost_grid_step, self.settings.ghost_half_span
         h = np.arange(-span, span + 1e-9, step)
-        v = h
-        hh, vv = np.meshgrid(h, v, indexing="ij")
-        dirs = direction_from_fov_angles(hh, vv).reshape(-1, 3)
-        return dirs[dirs @ direction < np.cos(self.settings.ghost_exclusion)]
+        hh, vv = np.meshgrid(h, h, indexing="ij")
+        return direction_from_fov_angles(hh, vv).reshape(-1, 3)
 
     def _baseband(self, spectra, n: int, start_time: float, carrier: float) -> np.ndarray:
         """(N_rx, n) analytic channels of compressed ``spectra`` (N_rx, n_fft) demodulated at
@@ -207,28 +208,55 @@ class EchoProcessor:
         t = start_time + np.arange(n) / self.synth.sample_rate
         return sfft.ifft(spectra, axis=-1, workers=-1)[:, :n] * np.exp(-2j * np.pi * carrier * t)
 
-    def _narrowband_power(self, baseband, samples, directions, carrier) -> np.ndarray:
-        """(C, D) magnitude of the narrow-band delay-and-sum of channels (N_rx, N) demodulated at
-        ``carrier`` [Hz] (:meth:`_baseband`), at (fractional) samples (C,) towards directions
-        (D, 3); channels are interpolated linearly between samples."""
+    def _delay_and_sum(self, directions, carrier: float, fraction: float = 0.0):
+        """Narrow-band delay-and-sum towards directions (D, 3) as a sparse (D, N_rx x L) matrix
+        acting on windows of L = 2 W + 2 samples per channel of channels demodulated at
+        ``carrier`` [Hz] (:meth:`_baseband`): the window starting W samples before sample k gives
+        the beams at sample k + ``fraction``, each channel read at its delay (5) by linear
+        interpolation and phase-aligned at the carrier. W covers the largest delay."""
         fs = self.synth.sample_rate
-        n = baseband.shape[1]
-        delays = self.receive_delays(directions)  # (D, N_rx)
-        q = np.asarray(samples, dtype=float)[:, None, None] + delays[None] * fs  # (C, D, N_rx)
-        i0 = np.clip(np.floor(q).astype(np.int64), 0, n - 2)
+        delays = self.receive_delays(directions)  # (D, N_rx) [s]
+        q = fraction + delays * fs
+        lag = self._window_lag
+        i0 = np.floor(q).astype(np.int64)
         frac = q - i0
-        rows = np.arange(baseband.shape[0])
-        values = (1 - frac) * baseband[rows, i0] + frac * baseband[rows, i0 + 1]
-        return np.abs(np.einsum("cdj,dj->cd", values, np.exp(2j * np.pi * carrier * delays)))
+        n_rx = delays.shape[1]
+        cols = np.arange(n_rx)[None, :] * (2 * lag + 2) + lag + i0
+        phase = np.exp(2j * np.pi * carrier * delays)
+        rows = np.broadcast_to(np.arange(len(delays))[:, None], delays.shape)
+        data = np.concatenate([((1 - frac) * phase).ravel(), (frac * phase).ravel()])
+        return sparse.csr_matrix((data, (np.tile(rows.ravel(), 2),
+                                         np.concatenate([cols.ravel(), cols.ravel() + 1]))),
+                                 shape=(len(delays), n_rx * (2 * lag + 2)))
+
+    @property
+    def _window_lag(self) -> int:
+        """W [samples]: the largest receive delay (5) over all directions, rounded up, plus one."""
+        g = self.geometry
+        return int(np.ceil(np.linalg.norm(g.rx_positions - g.rx_origin, axis=1).max()
+                           / self.c * self.synth.sample_rate)) + 1
+
+    def _windows(self, baseband, samples) -> np.ndarray:
+        """(N_rx x L, C) windows of the channels (N_rx, N) around integer samples (C,) for
+        :meth:`_delay_and_sum` (zeros beyond the recording)."""
+        lag = self._window_lag
+        padded = np.pad(baseband, ((0, 0), (lag + 1, lag + 1)))
+        offsets = np.asarray(samples, dtype=np.int64)[:, None] + np.arange(2 * lag + 2)[None, :] + 1
+        return padded[:, offsets].transpose(0, 2, 1).reshape(-1, len(offsets))
 
     def _arrives_off_beam(self, looks, candidates, direction) -> np.ndarray:
         """(C,) True where, at candidate sample k, in any look (baseband, carrier), some receive
         direction outside the main lobe is ``ghost_margin`` times stronger than the beam."""
-        directions = np.concatenate([direction[None], self._ghost_directions(direction)])
+        grid = self._ghost_grid()
+        outside = grid @ direction < np.cos(self.settings.ghost_exclusion)
         off_beam = np.zeros(len(candidates), bool)
         for baseband, carrier in looks:
-            power = self._narrowband_power(baseband, candidates, directions, carrier)
-            off_beam |= power[:, 1:].max(axis=1, initial=0.0) > self.settings.ghost_margin * power[:, 0]
+            if carrier not in self._ghost_operators:  # the grid is the same for every beam
+                self._ghost_operators[carrier] = self._delay_and_sum(grid, carrier)
+            windows = self._windows(baseband, candidates)
+            beam = np.abs(self._delay_and_sum(direction[None], carrier) @ windows)[0]
+            ghosts = np.abs(self._ghost_operators[carrier] @ windows)[outside]
+            off_beam |= ghosts.max(axis=0, initial=0.0) > self.settings.ghost_margin * beam
         return off_beam
 
     def _arrival_direction(self, looks, sample: float, direction) -> np.ndarray:
@@ -242,8 +270,9 @@ class EchoProcessor:
         offsets = np.arange(-half, half + 1) * s.arrival_step
         hh, vv = np.meshgrid(h0 + offsets, v0 + offsets, indexing="ij")
         grid = direction_from_fov_angles(hh, vv)  # (G, G, 3)
-        power = sum(self._narrowband_power(baseband, [sample], grid.reshape(-1, 3), carrier)[0] ** 2
-                    for baseband, carrier in looks)
+        k = int(np.floor(sample))
+        power = sum(np.abs(self._delay_and_sum(grid.reshape(-1, 3), carrier, sample - k)
+                           @ self._windows(baseband, [k]))[:, 0] ** 2 for baseband, carrier in looks)
         power = np.where(grid.reshape(-1, 3) @ direction >= np.cos(s.ghost_exclusion), power, 0.0)
         power = power.reshape(hh.shape)
         i, j = np.unravel_index(int(np.argmax(power)), power.shape)
@@ -331,9 +360,8 @@ class EchoProcessor:
         check, locate = s.ghost_margin > 0, s.arrival_step > 0
         looks = [(self._baseband(spectra, n, start_time, carrier), carrier)
                  for spectra, carrier in looks] if check or locate else []
-        if looks and check:  # the strongest candidate that passes in every look
-            candidates = next((candidates[c: c + 1] for c in range(len(candidates))
-                               if not self._arrives_off_beam(looks, candidates[c: c + 1], u)[0]), [])
+        if looks and check:  # a candidate must pass in every look
+            candidates = candidates[~self._arrives_off_beam(looks, candidates, u)][:1]
         if len(candidates) == 0:
             return Detection(False, np.nan, np.nan, np.nan, nan3, nan3, amplitude, level)
         k = int(candidates[0])
