@@ -260,11 +260,8 @@ class EchoSynthesizer:
             idx = base + int(offset)
             weight = dr.exp(-0.5 * dr.square((Float64(idx) - pos) * inv_sigma))
             flat = UInt32(row + (idx + self.n_fft) % self.n_fft)
-            # Direct atomics: 2x faster than the default local pre-reduction here, where
-            # neighbouring threads (paths) rarely hit the same sample.
-            for acc, part in ((acc_re, gain_re), (acc_im, gain_im)):
-                dr.scatter_reduce(dr.ReduceOp.Add, acc, Int64(dr.round(weight * part)), flat,
-                                  mode=dr.ReduceMode.Direct)
+            dr.scatter_reduce(dr.ReduceOp.Add, acc_re, Int64(dr.round(weight * gain_re)), flat)
+            dr.scatter_reduce(dr.ReduceOp.Add, acc_im, Int64(dr.round(weight * gain_im)), flat)
         dr.eval(acc_re, acc_im)
         grid = (acc_re.numpy() + 1j * acc_im.numpy()) / scale
         return grid.reshape(n_channels, self.n_fft)
