@@ -7,7 +7,7 @@ along the motion, so it gets thicker with speed. Registering each beam with its 
 firing (``registration="beam"``) removes the smear. Thickness is the 5-95 % spread of the
 voxel map's wall voxels along the wall normal (x). Writes CSV + Markdown tables and a PNG.
 
-    .venv/bin/python experiments/ofdm_motion.py --out out/ofdm_motion          # about 40 min
+    .venv/bin/python experiments/ofdm_motion.py --out out/ofdm_motion          # about 15 min
     .venv/bin/python experiments/ofdm_motion.py --quick --out out/ofdm_motion  # about 30 s
 """
 
