@@ -16,6 +16,7 @@ from importlib import resources
 
 import numpy as np
 
+from .beampattern import in_fov
 from .frames import direction_from_fov_angles, fov_angles
 from .validation import check_finite, check_positive
 
@@ -173,14 +174,13 @@ class ArrayGeometry:
         """Raise ValueError naming the first direction (..., 3) outside the field of view."""
         u = np.asarray(directions, dtype=float).reshape(-1, 3)
         check_finite("beam direction", u)
-        h, v = fov_angles(u)
-        bad = (np.abs(h) > self.fov_horizontal / 2 + 1e-9) | (np.abs(v) > self.fov_vertical / 2 + 1e-9) \
-            | (u[:, 2] <= 0)
+        bad = ~in_fov(u, self.fov_horizontal, self.fov_vertical)
         if np.any(bad):
             i = int(np.argmax(bad))
+            h, v = fov_angles(u[i])
             raise ValueError(
-                f"beam direction {u[i].round(4).tolist()} (horizontal {np.degrees(h[i]):.1f} deg, "
-                f"vertical {np.degrees(v[i]):.1f} deg) lies outside the "
+                f"beam direction {u[i].round(4).tolist()} (horizontal {np.degrees(h):.1f} deg, "
+                f"vertical {np.degrees(v):.1f} deg) lies outside the "
                 f"{np.degrees(self.fov_horizontal):.0f} x {np.degrees(self.fov_vertical):.0f} deg "
                 "field of view")
 
