@@ -19,6 +19,7 @@ import numpy as np
 
 from .array import ArrayGeometry
 from .frames import Pose
+from .hitpaths import HitPaths
 from .medium import Medium
 from .processing import Detection, DetectionSettings, EchoProcessor
 from .scene import AcousticScene, load_scene
@@ -251,7 +252,8 @@ class Sonar:
         envelope, detection = self.processor.process(recording, u, direct_envelope)
         return Ping(u, trace, recording, envelope, direct_envelope, detection)
 
-    def echo_groups(self, paths: Paths, waveform, synthesizer: EchoSynthesizer | None = None) -> list:
+    def echo_groups(self, paths: Paths | HitPaths, waveform,
+                    synthesizer: EchoSynthesizer | None = None) -> list:
         """(paths, waveform) groups to synthesise the traced ``paths`` driven by ``waveform`` with
         ``synthesizer`` (default: this sonar's), transmit elements merged behind narrow-band
         transducers (see ``config.narrowband_bandwidth``)."""

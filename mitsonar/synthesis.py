@@ -214,9 +214,10 @@ class EchoSynthesizer:
         centre = float(np.sum(self._freq * power) / np.sum(power))
         return centre, float(np.sqrt(np.sum((self._freq - centre) ** 2 * power) / np.sum(power)))
 
-    def narrowband_groups(self, paths: Paths, waveform=None) -> list:
-        """(paths, waveform) groups that synthesise ``paths`` driven by ``waveform`` with each
-        hit's transmit elements merged (:meth:`Paths.narrowband`) about the recorded centre
+    def narrowband_groups(self, paths, waveform=None) -> list:
+        """(paths, waveform) groups that synthesise ``paths`` (:class:`Paths` with per-hit blocks,
+        or :class:`~mitsonar.hitpaths.HitPaths`) driven by ``waveform`` with each
+        hit's transmit elements merged (``paths.narrowband``) about the recorded centre
         frequency of each tone of the waveform (an OFDM code's ``parts``, else itself)."""
         waveform = self.pulse if waveform is None else waveform
         groups = []
