@@ -33,7 +33,6 @@ def to_jit(array_type, values):
     return array_type(aligned)
 
 
-
 def rays(origins, directions, max_distance=None):
     """A Mitsuba ``Ray3f`` batch from origins (N, 3) or one origin (3,) and unit directions
     (N, 3) [m], world frame; ``max_distance`` (N,) [m] optional. Inputs are copied aligned

@@ -156,7 +156,17 @@ class EchoProcessor:
         self.settings = settings
         self.noise_rms = float(noise_rms)
         self._filters = {}
-        self._ghost_operators = {}  # carrier [Hz] -> delay-and-sum over the side-lobe grid
+        # Side-lobe check: a ``ghost_grid_step`` grid over +-``ghost_half_span`` in both
+        # field-of-view angles, the same for every beam, and its delay-and-sum per carrier [Hz].
+        h = np.arange(-settings.ghost_half_span, settings.ghost_half_span + 1e-9,
+                      settings.ghost_grid_step)
+        hh, vv = np.meshgrid(h, h, indexing="ij")
+        self._ghost_grid = direction_from_fov_angles(hh, vv).reshape(-1, 3)
+        self._ghost_operators = {}
+        # W [samples] of :meth:`_delay_and_sum`: the largest receive delay (5), rounded up, + 1.
+        self._window_lag = int(np.ceil(
+            np.linalg.norm(geometry.rx_positions - geometry.rx_origin, axis=1).max()
+            / self.c * synthesizer.sample_rate)) + 1
 
     def _matched_filter(self, waveform=None):
         """(filter spectrum, template energy) of a waveform: 2 conj(W) / E, E = sum |w_a|^2."""
@@ -194,14 +204,6 @@ class EchoProcessor:
         n = recording.samples.shape[1]
         return np.abs(self.beamform(self.compressed_spectra(recording, waveform), n, direction))
 
-    def _ghost_grid(self) -> np.ndarray:
-        """Receive directions (D, 3) checked for side-lobe arrivals: a ``ghost_grid_step`` grid
-        over +-``ghost_half_span`` in both field-of-view angles (the same for every beam)."""
-        step, span = self.settings.ghost_grid_step, self.settings.ghost_half_span
-        h = np.arange(-span, span + 1e-9, step)
-        hh, vv = np.meshgrid(h, h, indexing="ij")
-        return direction_from_fov_angles(hh, vv).reshape(-1, 3)
-
     def _baseband(self, spectra, n: int, start_time: float, carrier: float) -> np.ndarray:
         """(N_rx, n) analytic channels of compressed ``spectra`` (N_rx, n_fft) demodulated at
         ``carrier`` [Hz]; their first sample is at ``start_time`` [s]."""
@@ -229,13 +231,6 @@ class EchoProcessor:
                                          np.concatenate([cols.ravel(), cols.ravel() + 1]))),
                                  shape=(len(delays), n_rx * (2 * lag + 2)))
 
-    @property
-    def _window_lag(self) -> int:
-        """W [samples]: the largest receive delay (5) over all directions, rounded up, plus one."""
-        g = self.geometry
-        return int(np.ceil(np.linalg.norm(g.rx_positions - g.rx_origin, axis=1).max()
-                           / self.c * self.synth.sample_rate)) + 1
-
     def _windows(self, baseband, samples) -> np.ndarray:
         """(N_rx x L, C) windows of the channels (N_rx, N) around integer samples (C,) for
         :meth:`_delay_and_sum` (zeros beyond the recording)."""
@@ -247,7 +242,7 @@ class EchoProcessor:
     def _arrives_off_beam(self, looks, candidates, direction) -> np.ndarray:
         """(C,) True where, at candidate sample k, in any look (baseband, carrier), some receive
         direction outside the main lobe is ``ghost_margin`` times stronger than the beam."""
-        grid = self._ghost_grid()
+        grid = self._ghost_grid
         outside = grid @ direction < np.cos(self.settings.ghost_exclusion)
         off_beam = np.zeros(len(candidates), bool)
         for baseband, carrier in looks:
