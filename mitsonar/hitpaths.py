@@ -14,7 +14,7 @@ directions). :class:`HitPaths` stores the factors, (H, N_tx) and (H, N_rx) array
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import cached_property
 
 import numpy as np
@@ -125,18 +125,21 @@ class HitPaths:
     def channel(self) -> np.ndarray:
         return self.paths.channel
 
-    def narrowband(self, frequency: float) -> tuple[Paths, Paths]:
+    def delayed(self, seconds: float) -> "HitPaths":
+        """The same paths ``seconds`` [s] later (still factored)."""
+        return replace(self, tx_delay=self.tx_delay + seconds)
+
+    def narrowband(self, frequency: float) -> Paths:
         """Each patch's transmit elements merged into one path per receive element about
-        ``frequency`` [Hz], and the first-order companions: :meth:`Paths.narrowband` of the
-        expanded paths, computed in single precision by one fused kernel (H x N_rx threads)."""
+        ``frequency`` [Hz], with first-order terms: :meth:`Paths.narrowband` of the expanded
+        paths, computed in single precision by one fused kernel (H x N_rx threads)."""
         import drjit as dr
         from drjit.llvm import Float32, UInt32
 
         n_tx, n_rx = self.elements
         n_hits = len(self.tx_delay)
         if n_hits == 0:
-            empty = Paths(np.zeros(0, complex), np.zeros(0), np.zeros(0, int))
-            return empty, empty
+            return Paths.empty()
         # Transmit delays relative to their patch mean (|tau| <~ 0.2 ms): exact in single precision.
         tx_mean = self.tx_delay.mean(axis=1, keepdims=True)
         tau = self.tx_delay - tx_mean
@@ -174,7 +177,7 @@ class HitPaths:
         channel = np.tile(np.arange(n_rx), n_hits)
         merged = a_re.numpy().astype(float) + 1j * a_im.numpy()
         first_order = b_re.numpy().astype(float) + 1j * b_im.numpy()
-        return Paths(merged, centre, channel), Paths(first_order, centre, channel)
+        return Paths(merged, centre, channel, first_order=first_order, carrier=frequency)
 
 
 def _sinc_dr(x):

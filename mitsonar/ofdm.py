@@ -33,7 +33,7 @@ import numpy as np
 from .frames import Pose
 from .signals import spectrum_of
 from .sonar import PRE_ROLL, Sonar
-from .synthesis import EchoSynthesizer, Paths
+from .synthesis import EchoSynthesizer
 from .validation import check_positive
 
 #: The paper's tones [Hz].
@@ -334,39 +334,33 @@ class OfdmSonar:
             poses.append(pose.matrix())
             u = schedule.directions[b]
             paths = sonar.tracer.trace(pose, u, seed=_seed(seed, b)).paths
-            groups = [(_shifted(p, offset), w) for p, w in sonar.echo_groups(paths, code, self.synth)]
+            groups = [(p.delayed(offset), w) for p, w in sonar.echo_groups(paths, code, self.synth)]
             echo_spectra.append(self.synth.groups_spectrum(groups, n_rx))
             direct_spectra.append(self.synth.group_spectrum(
-                _shifted(sonar.tracer.direct_paths(u), offset), code, n_rx))
+                sonar.tracer.direct_paths(u).delayed(offset), code, n_rx))
         direct_total = np.sum(direct_spectra, axis=0)
         total = np.sum(echo_spectra, axis=0) + direct_total
         rec = self.synth.recording(self.synth.to_analytic(total), sonar.config.noise_rms,
                                    seed=_seed(seed, int(beams[0]), _NOISE_STREAM))
-        direct = self.synth.recording(self.synth.to_analytic(direct_total))
         out = {key: [] for key in ("detected", "depth", "amplitude", "points", "crosstalk")}
         max_path = 2.0 * sonar.config.max_range  # the listening window of every code
         for i, (b, offset, code) in enumerate(zip(beams, offsets, codes)):
             u = schedule.directions[b]
-            blank = self.processor.envelope(direct, u, code)
+            blank = self.processor.noiseless_envelope(direct_total, u, code)
             env, det = self.processor.process(rec, u, blank, code, transmit_time=offset,
                                               max_path_length=max_path)
             out["detected"].append(det.detected)
             out["depth"].append(det.depth)
             out["amplitude"].append(det.amplitude)
             out["points"].append(det.point)
-            if det.detected:
-                others = self.synth.recording(self.synth.to_analytic(total - echo_spectra[i]))
-                leak = self.processor.envelope(others, u, code)
+            if det.detected:  # what the cycle's other beams (and the direct paths) leave here
+                leak = self.processor.noiseless_envelope(total - echo_spectra[i], u, code)
                 window = np.abs(rec.times - offset - det.time_of_arrival) < 2 * code.slot
                 out["crosstalk"].append(20 * np.log10(max(leak[window].max(), 1e-30) / det.amplitude))
             else:
                 out["crosstalk"].append(np.nan)
         out["poses"] = np.array(poses)
         return {key: np.array(value) for key, value in out.items()}
-
-
-def _shifted(paths: Paths, offset: float) -> Paths:
-    return Paths(paths.gain, paths.delay + offset, paths.channel, paths.elements)
 
 
 _NOISE_STREAM = 1_000_003  # separates the noise seeds from the per-beam trace seeds

@@ -163,6 +163,7 @@ class EchoProcessor:
         hh, vv = np.meshgrid(h, h, indexing="ij")
         self._ghost_grid = direction_from_fov_angles(hh, vv).reshape(-1, 3)
         self._ghost_operators = {}
+        self._last_spectra = (None, None)
         # W [samples] of :meth:`_delay_and_sum`: the largest receive delay (5), rounded up, + 1.
         self._window_lag = int(np.ceil(
             np.linalg.norm(geometry.rx_positions - geometry.rx_origin, axis=1).max()
@@ -188,10 +189,17 @@ class EchoProcessor:
         g = self.geometry
         return -(np.asarray(directions, dtype=float) @ (g.rx_positions - g.rx_origin).T) / self.c
 
+    def _spectra(self, recording: Recording) -> np.ndarray:
+        """FFT (N_rx, n_fft) of the recording's channels. The last recording's is kept: an OFDM
+        cycle decodes every beam and tone from one recording."""
+        if self._last_spectra[0] is not recording:
+            self._last_spectra = (recording, sfft.fft(recording.samples, n=self.synth.n_fft,
+                                                      axis=-1, workers=-1))
+        return self._last_spectra[1]
+
     def compressed_spectra(self, recording: Recording, waveform=None) -> np.ndarray:
         """Matched-filtered analytic spectra of all channels, (N_rx, n_fft)."""
-        return sfft.fft(recording.samples, n=self.synth.n_fft, axis=-1, workers=-1) \
-            * self._matched_filter(waveform)[0]
+        return self._spectra(recording) * self._matched_filter(waveform)[0]
 
     def beamform(self, spectra: np.ndarray, n_samples: int, direction) -> np.ndarray:
         """Delay-and-sum of compressed spectra towards ``direction`` (3,): analytic (N,) [Pa]."""
@@ -203,6 +211,16 @@ class EchoProcessor:
         """Envelope (N,) [Pa] of the beamformed, matched-filtered recording."""
         n = recording.samples.shape[1]
         return np.abs(self.beamform(self.compressed_spectra(recording, waveform), n, direction))
+
+    def noiseless_envelope(self, spectrum: np.ndarray, direction, waveform=None) -> np.ndarray:
+        """Envelope (n_samples,) [Pa] of echoes given by their summed analytic spectrum
+        (N_rx, n_fft) (:meth:`EchoSynthesizer.groups_spectrum
+        <mitsonar.synthesis.EchoSynthesizer.groups_spectrum>`): :meth:`envelope` of their
+        noiseless recording, except that echoes are not cut at the recording's end."""
+        # The real recording's spectrum is half the analytic one at positive frequencies, where
+        # the matched filter (2 conj(W) / E) lives.
+        return np.abs(self.beamform(0.5 * spectrum * self._matched_filter(waveform)[0],
+                                    self.synth.n_samples, direction))
 
     def _baseband(self, spectra, n: int, start_time: float, carrier: float) -> np.ndarray:
         """(N_rx, n) analytic channels of compressed ``spectra`` (N_rx, n_fft) demodulated at

@@ -15,7 +15,7 @@ Fractional delays are exact up to the stated tolerance, far below one sample.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import scipy.fft as sfft
@@ -36,40 +36,59 @@ def phasor(angle) -> np.ndarray:
 class Paths:
     """Flat list of acoustic paths.
 
+    A path's analytic spectrum in its channel is exp(-j 2 pi f tau) [a - j 2 pi (f - f_c) b] W(f),
+    W the system spectrum of the drive: ``b`` is the first-order term of narrow-band merging
+    (:meth:`narrowband`), absent for ordinary paths.
+
     Attributes:
-        gain: (M,) complex gain [Pa] applied to the analytic drive waveform.
-        delay: (M,) delay from the virtual firing of the transmit origin [s].
+        gain: (M,) complex gain a [Pa] applied to the analytic drive waveform.
+        delay: (M,) delay tau from the virtual firing of the transmit origin [s].
         channel: (M,) receive element index.
         elements: (N_tx, N_rx) when the paths come in per-hit blocks, ordered (hit, transmit
             element, receive element), which :meth:`narrowband` can merge; None otherwise.
+        first_order: (M,) complex first-order gains b [Pa s], or None.
+        carrier: f_c of the first-order term [Hz].
     """
 
     gain: np.ndarray
     delay: np.ndarray
     channel: np.ndarray
     elements: tuple[int, int] | None = None
+    first_order: np.ndarray | None = None
+    carrier: float = 0.0
 
     def __post_init__(self):
         n = len(self.gain)
         if len(self.delay) != n or len(self.channel) != n:
             raise ValueError("Paths: gain, delay and channel must have the same length")
+        if self.first_order is not None and len(self.first_order) != n:
+            raise ValueError("Paths: first_order must have one entry per path")
         if self.elements is not None and n % (self.elements[0] * self.elements[1]):
             raise ValueError(f"Paths: {n} paths are not whole blocks of {self.elements} elements")
 
-    def narrowband(self, frequency: float) -> tuple["Paths", "Paths"]:
-        """Each hit's transmit elements merged into one path per receive channel, about
-        ``frequency`` [Hz]: (merged paths, their first-order companions).
+    @classmethod
+    def empty(cls) -> "Paths":
+        """No paths."""
+        return cls(np.zeros(0, complex), np.zeros(0), np.zeros(0, int))
+
+    def delayed(self, seconds: float) -> "Paths":
+        """The same paths ``seconds`` [s] later (e.g. a beam fired later in an OFDM cycle)."""
+        return replace(self, delay=self.delay + seconds)
+
+    def narrowband(self, frequency: float) -> "Paths":
+        """Each hit's transmit elements merged into one path per receive channel about
+        ``frequency`` [Hz], with a first-order term.
 
         With tau_i = tau_c + delta_i (tau_c the |gain|-weighted mean delay of the elements), the
         elements' spectrum is W(f) exp(-j 2 pi f tau_c) sum_i c_i exp(-j 2 pi (f - f0) delta_i),
         c_i = a_i exp(-j 2 pi f0 delta_i); to first order in (f - f0) delta_i it is
-        W(f) exp(-j 2 pi f tau_c) [A - j 2 pi (f - f0) B], A = sum_i c_i, B = sum_i c_i delta_i.
-        The merged paths carry A, the companions B (drive them with :class:`Detuned`). Exact at
-        f0; the remaining error is second order in the delay spread (aperture and steering, up
-        to ~0.1 ms) times the bandwidth. Paths without per-hit blocks: (self, no paths).
+        W(f) exp(-j 2 pi f tau_c) [A - j 2 pi (f - f0) B], A = sum_i c_i, B = sum_i c_i delta_i:
+        the merged path's gain and first-order gain. Exact at f0; the remaining error is second
+        order in the delay spread (aperture and steering, up to ~0.1 ms) times the bandwidth.
+        Paths without per-hit blocks are returned as they are.
         """
         if self.elements is None:
-            return self, Paths(np.zeros(0, complex), np.zeros(0), np.zeros(0, int))
+            return self
         n_tx, n_rx = self.elements
         gain = self.gain.reshape(-1, n_tx, n_rx)
         delay = self.delay.reshape(-1, n_tx, n_rx)
@@ -80,41 +99,42 @@ class Paths:
         offset = delay - centre[:, None, :]
         c = gain * phasor(-2 * np.pi * frequency * offset)  # phases of at most ~60 rad
         channel = self.channel.reshape(-1, n_tx, n_rx)[:, 0, :].ravel()
-        return (Paths(c.sum(axis=1).ravel(), centre.ravel(), channel),
-                Paths(np.einsum("hij,hij->hj", c, offset).ravel(), centre.ravel(), channel))
+        return Paths(c.sum(axis=1).ravel(), centre.ravel(), channel,
+                     first_order=np.einsum("hij,hij->hj", c, offset).ravel(), carrier=frequency)
+
+    @property
+    def paths(self) -> "Paths":
+        """These paths (as :attr:`HitPaths.paths <mitsonar.hitpaths.HitPaths.paths>` expands
+        factored ones)."""
+        return self
+
+    def about(self, carrier: float) -> "Paths":
+        """The same paths with the first-order term expressed about ``carrier`` [Hz] (exact:
+        a - j 2 pi (f - f1) b = a + j 2 pi (f1 - f2) b - j 2 pi (f - f2) b)."""
+        if self.first_order is None:
+            return self
+        gain = self.gain + 2j * np.pi * (self.carrier - carrier) * self.first_order
+        return replace(self, gain=gain, carrier=float(carrier))
 
     @classmethod
     def concatenate(cls, parts) -> "Paths":
-        """All paths of ``parts``; per-hit blocks are kept when every part has the same ones."""
+        """All paths of ``parts``; per-hit blocks are kept when every part has the same ones,
+        first-order terms (zero for parts without) re-expressed about 0 Hz unless the parts that
+        have them share a carrier."""
         parts = list(parts)
         blocks = {p.elements for p in parts}
+        carriers = {p.carrier for p in parts if p.first_order is not None}
+        if len(carriers) > 1:
+            parts, carriers = [p.about(0.0) for p in parts], {0.0}
+        first_order = np.concatenate([np.zeros(len(p), complex) if p.first_order is None
+                                      else p.first_order for p in parts]) if carriers else None
         return cls(np.concatenate([p.gain for p in parts]), np.concatenate([p.delay for p in parts]),
                    np.concatenate([p.channel for p in parts]),
-                   blocks.pop() if len(blocks) == 1 else None)
+                   blocks.pop() if len(blocks) == 1 else None, first_order,
+                   carriers.pop() if carriers else 0.0)
 
     def __len__(self) -> int:
         return len(self.gain)
-
-
-@dataclass(frozen=True)
-class Detuned:
-    """The drive ``waveform`` with its spectrum times -j 2 pi (f - ``carrier``) [Hz]: the
-    first-order term of narrow-band merging (:meth:`Paths.narrowband`)."""
-
-    waveform: object
-    carrier: float
-
-    @property
-    def duration(self) -> float:
-        return self.waveform.duration
-
-    @property
-    def frequency(self) -> float:
-        return self.carrier
-
-    def spectrum(self, frequency) -> np.ndarray:
-        f = np.asarray(frequency, dtype=float)
-        return -2j * np.pi * (f - self.carrier) * self.waveform.spectrum(f)
 
 
 @dataclass(frozen=True)
@@ -193,9 +213,6 @@ class EchoSynthesizer:
         """Analytic spectrum W(f) of the expected echo of a unit path (drive x H_tx x H_rx) on
         the FFT grid, scaled per sample; zero outside the band. Cached per waveform."""
         waveform = self.pulse if waveform is None else waveform
-        if waveform not in self._spectra and isinstance(waveform, Detuned):  # the parent's band
-            self._spectra[waveform] = -2j * np.pi * (self._freq - waveform.carrier) \
-                * self.system_spectrum(waveform.waveform)
         if waveform not in self._spectra:
             f = self._freq
             positive = f > 0
@@ -220,15 +237,15 @@ class EchoSynthesizer:
         hit's transmit elements merged (``paths.narrowband``) about the recorded centre
         frequency of each tone of the waveform (an OFDM code's ``parts``, else itself)."""
         waveform = self.pulse if waveform is None else waveform
-        groups = []
-        for tone in getattr(waveform, "parts", (waveform,)):
-            centre = self.band_moments(tone)[0]
-            merged, first_order = paths.narrowband(centre)
-            groups += [(merged, tone), (first_order, Detuned(tone, centre))]
-        return groups
+        return [(paths.narrowband(self.band_moments(tone)[0]), tone)
+                for tone in getattr(waveform, "parts", (waveform,))]
 
     def impulse_grid(self, paths: Paths, n_channels: int) -> np.ndarray:
-        """Spread paths onto the (n_channels, n_fft) sample grid with the Gaussian kernel.
+        """Spread paths onto the (n_channels, n_fft) sample grid with the Gaussian kernel g.
+
+        A first-order term b about f_c goes onto the same grid with the kernel's derivative,
+        b (j 2 pi f_c g(x) - fs g'(x)), whose transform is -j 2 pi (f - f_c) times g's: one grid
+        and one FFT carry both terms of a narrow-band merged path.
 
         Runs as one Dr.Jit LLVM kernel (a scatter-add per kernel tap), compiled once and reused.
         Contributions are accumulated as 64-bit fixed-point integers, whose sum does not depend
@@ -244,27 +261,43 @@ class EchoSynthesizer:
             raise ValueError(f"path channel out of range 0..{n_channels - 1}")
         size = n_channels * self.n_fft
         gain = np.asarray(paths.gain)[keep]
-        peak = float(np.max(np.abs(gain), initial=0.0))
+        inv_var = 1.0 / self.sigma**2
+        omega = 2 * np.pi * paths.carrier
+        # |j omega g(x) - fs g'(x)| <= omega + fs |x| / sigma^2 over the taps, |x| <= half_width + 1.
+        slope = None if paths.first_order is None else np.asarray(paths.first_order)[keep]
+        bound = np.abs(gain) if slope is None else \
+            np.abs(gain) + np.abs(slope) * (omega + self.sample_rate * (self.half_width + 1) * inv_var)
+        peak = float(np.max(bound, initial=0.0))
         if len(channel) == 0 or peak == 0.0:
             return np.zeros((n_channels, self.n_fft), dtype=complex)
-        # Quantum 2^-36 of the largest gain: up to 2^25 terms of that size cannot overflow int64,
-        # and the rounding (1.5e-11 relative per term) is far below the synthesis tolerance.
+        # Quantum 2^-36 of the largest contribution: up to 2^25 terms of that size cannot overflow
+        # int64, and the rounding (1.5e-11 relative per term) is far below the synthesis tolerance.
         scale = 2.0 ** (36 - np.ceil(np.log2(peak)))
         pos = to_jit(Float64, u[keep])
         gain_re, gain_im = to_jit(Float64, gain.real * scale), to_jit(Float64, gain.imag * scale)
+        if slope is not None:
+            slope_re = to_jit(Float64, slope.real * scale)
+            slope_im = to_jit(Float64, slope.imag * scale)
         row = to_jit(Int64, channel) * self.n_fft
         base = Int64(dr.floor(pos))
         acc_re = dr.zeros(Int64, size)
         acc_im = dr.zeros(Int64, size)
-        inv_sigma = 1.0 / self.sigma
         for offset in self._offsets:  # kernel taps (a fixed, small count), not paths
             idx = base + int(offset)
-            weight = dr.exp(-0.5 * dr.square((Float64(idx) - pos) * inv_sigma))
+            x = Float64(idx) - pos
+            weight = dr.exp(-0.5 * dr.square(x) * inv_var)
+            value_re, value_im = gain_re, gain_im
+            if slope is not None:  # b (j omega + fs x / sigma^2)
+                k = (self.sample_rate * inv_var) * x
+                value_re = value_re + slope_re * k - slope_im * omega
+                value_im = value_im + slope_im * k + slope_re * omega
             flat = UInt32(row + (idx + self.n_fft) % self.n_fft)
-            dr.scatter_reduce(dr.ReduceOp.Add, acc_re, Int64(dr.round(weight * gain_re)), flat)
-            dr.scatter_reduce(dr.ReduceOp.Add, acc_im, Int64(dr.round(weight * gain_im)), flat)
+            dr.scatter_reduce(dr.ReduceOp.Add, acc_re, Int64(dr.round(weight * value_re)), flat)
+            dr.scatter_reduce(dr.ReduceOp.Add, acc_im, Int64(dr.round(weight * value_im)), flat)
         dr.eval(acc_re, acc_im)
-        grid = (acc_re.numpy() + 1j * acc_im.numpy()) / scale
+        grid = np.empty(size, dtype=complex)
+        grid.real, grid.imag = acc_re.numpy(), acc_im.numpy()
+        grid /= scale
         return grid.reshape(n_channels, self.n_fft)
 
     def analytic(self, paths: Paths, n_channels: int, waveform=None) -> np.ndarray:
@@ -288,7 +321,7 @@ class EchoSynthesizer:
         for paths, waveform in groups:
             by_waveform.setdefault(self.pulse if waveform is None else waveform, []).append(paths)
         waveforms = list(by_waveform)
-        stacked = Paths.concatenate([Paths(p.gain, p.delay, p.channel + k * n_channels)
+        stacked = Paths.concatenate([replace(p.paths, channel=p.channel + k * n_channels, elements=None)
                                      for k, w in enumerate(waveforms) for p in by_waveform[w]])
         grid = self.impulse_grid(stacked, len(waveforms) * n_channels)
         spectra = sfft.fft(grid, axis=-1, workers=-1).reshape(len(waveforms), n_channels, self.n_fft)
