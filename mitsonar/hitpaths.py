@@ -87,6 +87,10 @@ class HitPaths:
         return cls(*(np.concatenate([getattr(p, name) for p in parts])
                      for name in cls.__dataclass_fields__))
 
+    def select(self, rows) -> "HitPaths":
+        """The patches ``rows`` (an index, slice or mask over the H patches)."""
+        return HitPaths(*(getattr(self, name)[rows] for name in self.__dataclass_fields__))
+
     @property
     def elements(self) -> tuple[int, int]:
         """(N_tx, N_rx)."""
@@ -133,13 +137,18 @@ class HitPaths:
         """Each patch's transmit elements merged into one path per receive element about
         ``frequency`` [Hz], with first-order terms: :meth:`Paths.narrowband` of the expanded
         paths, computed in single precision by one fused kernel (H x N_rx threads)."""
+        return self.narrowband_many([frequency])[0]
+
+    def narrowband_many(self, frequencies) -> list[Paths]:
+        """:meth:`narrowband` about each of ``frequencies`` [Hz] (an OFDM code's tones), in one
+        kernel: the element-pair gains are formed once for all of them."""
         import drjit as dr
         from drjit.llvm import Float32, UInt32
 
         n_tx, n_rx = self.elements
         n_hits = len(self.tx_delay)
         if n_hits == 0:
-            return Paths.empty()
+            return [Paths.empty() for _ in frequencies]
         # Transmit delays relative to their patch mean (|tau| <~ 0.2 ms): exact in single precision.
         tx_mean = self.tx_delay.mean(axis=1, keepdims=True)
         tau = self.tx_delay - tx_mean
@@ -153,7 +162,6 @@ class HitPaths:
                                self.tx_diffuse.imag, self.tx_cos, self.tx_sinc[..., 0],
                                self.tx_sinc[..., 1], tau)]
         row = (dr.arange(UInt32, n_hits * n_rx) // n_rx) * n_tx
-        omega = dr.opaque(Float32, -2.0 * np.pi * frequency)  # opaque: one kernel for all tones
         gains = []
         for i in range(n_tx):  # the transmit elements of each thread's patch (unrolled)
             p_re, p_im, u_re, u_im, c, a1, a2, tau_i = (dr.gather(Float32, x, row + i) for x in tx)
@@ -165,19 +173,24 @@ class HitPaths:
         total = sum(weight)
         mean_tau = dr.select(total > 0, sum(w * t for w, (_, _, t) in zip(weight, gains))
                              / dr.select(total > 0, total, 1.0), 0.0)
-        a_re = a_im = b_re = b_im = Float32(0.0)
-        for g_re, g_im, tau_i in gains:
-            offset = tau_i - mean_tau
-            s, co = dr.sincos(omega * offset)
-            c_re, c_im = g_re * co - g_im * s, g_re * s + g_im * co
-            a_re, a_im = a_re + c_re, a_im + c_im
-            b_re, b_im = b_re + c_re * offset, b_im + c_im * offset
-        dr.eval(a_re, a_im, b_re, b_im, mean_tau)
+        sums = []
+        for frequency in frequencies:
+            omega = dr.opaque(Float32, -2.0 * np.pi * frequency)  # opaque: one kernel for all tones
+            a_re = a_im = b_re = b_im = Float32(0.0)
+            for g_re, g_im, tau_i in gains:
+                offset = tau_i - mean_tau
+                s, co = dr.sincos(omega * offset)
+                c_re, c_im = g_re * co - g_im * s, g_re * s + g_im * co
+                a_re, a_im = a_re + c_re, a_im + c_im
+                b_re, b_im = b_re + c_re * offset, b_im + c_im * offset
+            sums.append((a_re, a_im, b_re, b_im))
+        dr.eval(mean_tau, *(x for four in sums for x in four))
         centre = (self.rx_delay + tx_mean + mean_tau.numpy().reshape(n_hits, n_rx)).ravel()
         channel = np.tile(np.arange(n_rx), n_hits)
-        merged = a_re.numpy().astype(float) + 1j * a_im.numpy()
-        first_order = b_re.numpy().astype(float) + 1j * b_im.numpy()
-        return Paths(merged, centre, channel, first_order=first_order, carrier=frequency)
+        return [Paths(a_re.numpy().astype(float) + 1j * a_im.numpy(), centre, channel,
+                      first_order=b_re.numpy().astype(float) + 1j * b_im.numpy(),
+                      carrier=float(frequency))
+                for frequency, (a_re, a_im, b_re, b_im) in zip(frequencies, sums)]
 
 
 def _sinc_dr(x):

@@ -32,7 +32,7 @@ import numpy as np
 
 from .frames import Pose
 from .signals import spectrum_of
-from .sonar import PRE_ROLL, Sonar
+from .sonar import PRE_ROLL, TRACE_BATCH, Sonar
 from .synthesis import EchoSynthesizer
 from .validation import check_positive
 
@@ -328,17 +328,19 @@ class OfdmSonar:
         t0 = schedule.cycle_start[schedule.cycle[beams[0]]]
         offsets = schedule.transmit_time[beams] - t0  # firing times within the cycle
         codes = [schedule.codes[k] for k in schedule.code_index[beams]]
-        poses, echo_spectra, direct_spectra = [], [], []
-        for b, offset, code in zip(beams, offsets, codes):  # beams of a cycle, each vectorised
-            pose = pose_at(start_time + schedule.transmit_time[b])
-            poses.append(pose.matrix())
-            u = schedule.directions[b]
-            paths = sonar.tracer.trace(pose, u, seed=_seed(seed, b)).paths
-            groups = [(p.delayed(offset), w) for p, w in sonar.echo_groups(paths, code, self.synth)]
+        poses = [pose_at(start_time + schedule.transmit_time[b]) for b in beams]
+        traces = [trace for first in range(0, len(beams), TRACE_BATCH)
+                  for trace in sonar.tracer.trace_many(
+                      poses[first:first + TRACE_BATCH],
+                      schedule.directions[beams[first:first + TRACE_BATCH]],
+                      [_seed(seed, b) for b in beams[first:first + TRACE_BATCH]])]
+        echo_spectra = []
+        for trace, offset, code in zip(traces, offsets, codes):  # each beam's echoes, vectorised
+            groups = [(p.delayed(offset), w) for p, w in sonar.echo_groups(trace.paths, code, self.synth)]
             echo_spectra.append(self.synth.groups_spectrum(groups, n_rx))
-            direct_spectra.append(self.synth.group_spectrum(
-                sonar.tracer.direct_paths(u).delayed(offset), code, n_rx))
-        direct_total = np.sum(direct_spectra, axis=0)
+        direct_total = self.synth.groups_spectrum(
+            [(sonar.tracer.direct_paths(schedule.directions[b]).delayed(offset), code)
+             for b, offset, code in zip(beams, offsets, codes)], n_rx)
         total = np.sum(echo_spectra, axis=0) + direct_total
         rec = self.synth.recording(self.synth.to_analytic(total), sonar.config.noise_rms,
                                    seed=_seed(seed, int(beams[0]), _NOISE_STREAM))
@@ -359,7 +361,7 @@ class OfdmSonar:
                 out["crosstalk"].append(20 * np.log10(max(leak[window].max(), 1e-30) / det.amplitude))
             else:
                 out["crosstalk"].append(np.nan)
-        out["poses"] = np.array(poses)
+        out["poses"] = np.array([pose.matrix() for pose in poses])
         return {key: np.array(value) for key, value in out.items()}
 
 

@@ -32,6 +32,9 @@ from .validation import check_positive
 #: Time recorded before the virtual firing of the transmit origin [s] (steering delays are
 #: negative for half the elements).
 PRE_ROLL = 0.5e-3
+#: Beams traced together by scans and OFDM cycles: enough to pay the per-call costs of the ray
+#: casts once for several beams, few enough to bound memory (~10 MB of patch factors per beam).
+TRACE_BATCH = 8
 
 
 @dataclass(frozen=True)
@@ -238,8 +241,11 @@ class Sonar:
             raise ValueError(f"direction must be a (3,) vector, got shape {u.shape}")
         self.config.geometry.check_in_fov(u)
         u = u / np.linalg.norm(u)
+        return self._receive(u, self.tracer.trace(pose, u, seed=seed), seed)
+
+    def _receive(self, u: np.ndarray, trace: TraceResult, seed: int) -> Ping:
+        """The echoes of a traced beam (unit direction ``u``), recorded and processed."""
         n_rx = self.config.geometry.rx.count
-        trace = self.tracer.trace(pose, u, seed=seed)
         direct = self.tracer.direct_paths(u)
         groups = self.echo_groups(trace.paths, self.config.pulse) + [(direct, self.config.pulse)]
         recording = self.synthesizer.recording(self.synthesizer.analytic_sum(groups, n_rx),
@@ -265,19 +271,26 @@ class Sonar:
     def scan(self, pose: Pose, directions, seed: int = 0, progress=None) -> Scan:
         """Ping every direction (B, 3) from one pose; ``progress`` is called with each index.
 
-        Beam b uses seed ``[seed, b]``.
+        Beam b uses seed ``[seed, b]`` and gives the same ping as :meth:`ping` with that seed;
+        beams are traced ``TRACE_BATCH`` at a time (:meth:`AcousticTracer.trace_many
+        <mitsonar.tracer.AcousticTracer.trace_many>`).
         """
         dirs = np.asarray(directions, dtype=float).reshape(-1, 3)
         self.config.geometry.check_in_fov(dirs)
+        dirs = dirs / np.linalg.norm(dirs, axis=1, keepdims=True)
         n_rx = self.config.geometry.rx.count
         echoes = np.empty((len(dirs), n_rx, self.synthesizer.n_samples), dtype=np.float32)
         detections = []
-        for b, u in enumerate(dirs):  # one beam at a time: each beam is a vectorised trace
-            ping = self.ping(pose, u, seed=_beam_seed(seed, b))
-            echoes[b] = ping.recording.samples  # keep the echoes and the decision, not the paths
-            detections.append(ping.detection)
-            if progress is not None:
-                progress(b)
+        for first in range(0, len(dirs), TRACE_BATCH):
+            beams = range(first, min(first + TRACE_BATCH, len(dirs)))
+            seeds = [_beam_seed(seed, b) for b in beams]
+            traces = self.tracer.trace_many([pose] * len(beams), dirs[first:beams.stop], seeds)
+            for b, beam_seed, trace in zip(beams, seeds, traces):  # each beam's echoes, vectorised
+                ping = self._receive(dirs[b], trace, beam_seed)
+                echoes[b] = ping.recording.samples  # keep the echoes and the decision, not the paths
+                detections.append(ping.detection)
+                if progress is not None:
+                    progress(b)
         return Scan(pose=pose, directions=dirs,
                     detected=np.array([d.detected for d in detections], dtype=bool),
                     depth=np.array([d.depth for d in detections]),

@@ -116,6 +116,10 @@ class Paths:
         gain = self.gain + 2j * np.pi * (self.carrier - carrier) * self.first_order
         return replace(self, gain=gain, carrier=float(carrier))
 
+    def narrowband_many(self, frequencies) -> list["Paths"]:
+        """:meth:`narrowband` about each of ``frequencies`` [Hz]."""
+        return [self.narrowband(f) for f in frequencies]
+
     @classmethod
     def concatenate(cls, parts) -> "Paths":
         """All paths of ``parts``; per-hit blocks are kept when every part has the same ones,
@@ -237,8 +241,8 @@ class EchoSynthesizer:
         hit's transmit elements merged (``paths.narrowband``) about the recorded centre
         frequency of each tone of the waveform (an OFDM code's ``parts``, else itself)."""
         waveform = self.pulse if waveform is None else waveform
-        return [(paths.narrowband(self.band_moments(tone)[0]), tone)
-                for tone in getattr(waveform, "parts", (waveform,))]
+        tones = getattr(waveform, "parts", (waveform,))
+        return list(zip(paths.narrowband_many([self.band_moments(t)[0] for t in tones]), tones))
 
     def impulse_grid(self, paths: Paths, n_channels: int) -> np.ndarray:
         """Spread paths onto the (n_channels, n_fft) sample grid with the Gaussian kernel g.

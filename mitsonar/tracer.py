@@ -155,6 +155,11 @@ def _unit(v):
     return v / np.linalg.norm(v, axis=-1, keepdims=True)
 
 
+def _rotate(rotation, v, inverse: bool = False):
+    """Rows (K, 3) rotated by their own matrices (K, 3, 3) (transposed with ``inverse``)."""
+    return np.einsum("kji,kj->ki" if inverse else "kij,kj->ki", rotation, v)
+
+
 class AcousticTracer:
     """Traces beams through one loaded scene; build once, call :meth:`trace` per beam.
 
@@ -228,7 +233,8 @@ class AcousticTracer:
         active = np.arange(n_rays)
         o = origins.copy()
         for _ in range(_MAX_TRANSPARENT_LAYERS):  # loop over layers, each vectorised over rays
-            si = self.scene.scene.ray_intersect(rays(o[active], directions[active]))
+            si = self.scene.scene.ray_intersect(rays(o[active], directions[active]),
+                                                ray_flags=self.mi.RayFlags.Minimal, coherent=False)
             valid_dr = si.is_valid()
             dr.eval(si.t, si.p, si.n, si.shape, valid_dr)  # one kernel launch for all outputs
             valid = np.asarray(valid_dr, dtype=bool)
@@ -284,7 +290,7 @@ class AcousticTracer:
             points: (H, 3) patch centres (sensor frame).
             tx_virtual: (H, N_tx, 3) element positions, mirrored for unfolded bounces.
             departure: (H, 3) point the element directivity is evaluated towards.
-            steering: (N_tx,) firing delays t_i^D [s].
+            steering: (H, N_tx) firing delays t_i^D [s] of each hit's beam.
         """
         g = self.geometry
         tx = g.tx_positions
@@ -295,7 +301,7 @@ class AcousticTracer:
         amp = self.transducer.source_amplitude * self.transducer.directivity(cos_dep, self.k) \
             * self._attenuation(r) / r
         gain = amp * np.exp(1j * g.tx_phase_offsets)[None, :]
-        return gain, steering[None, :] + r / self.c, w / r[..., None]
+        return gain, steering + r / self.c, w / r[..., None]
 
     def _rx_factors(self, points, visible):
         """Re-radiation per hit and receive element, each (H, N_rx): gain, delay [s], and unit
@@ -308,8 +314,9 @@ class AcousticTracer:
         return gain, r / self.c, v / r[..., None]
 
     def _scatter(self, points, normals, mats, d_in, dd1, dd2, t_unfold, tx_virtual, departure,
-                 steering, extra_gain, visible, rng) -> HitPaths:
-        """Paths re-radiated by patches (see module docstring). All inputs are per hit.
+                 steering, extra_gain, visible, roughness) -> HitPaths:
+        """Paths re-radiated by patches (see module docstring). All inputs are per hit
+        (``roughness``: (H,) unit phasors of the diffuse part, see :meth:`_roughness`).
 
         Incidence and emergence angles, reflection coefficients and the phase gradient of the
         patch integral are evaluated per transmit and receive element, which keeps the patch
@@ -345,8 +352,6 @@ class AcousticTracer:
         specular = 1j * self.k / (4 * np.pi) * area * np.sqrt(1 - s) * extra_gain
         # Lambert: |r| sqrt(s A cos_in cos_out / pi), with a random phase per patch (surface
         # roughness; constant over the narrow band of the pulse), so it shares the delays.
-        roughness = np.exp(2j * np.pi * rng.uniform(0.0, 1.0, len(points))) if np.any(s > 0) \
-            else np.ones(len(points))
         diffuse = np.sqrt(s * area / np.pi) * extra_gain * roughness
         return HitPaths(tx_delay, rx_delay, tx_gain * r * tx_ok, rx_gain * rx_ok, specular,
                         cos_in, cos_out, tx_sinc, rx_sinc,
@@ -354,37 +359,41 @@ class AcousticTracer:
                         rx_gain * np.sqrt(np.clip(cos_out, 0, None)), diffuse)
 
     # ---- public ----------------------------------------------------------------------------
-    def _cast(self, sensor_pose: Pose, u, e1, e2, a, b):
-        """Rays through tangent-plane offsets (a, b) around u; returns directions (sensor frame),
-        |u + a e1 + b e2| and the intersection results of :meth:`_intersect`."""
-        v = u[None] + a[:, None] * e1[None] + b[:, None] * e2[None]
+    def _cast(self, rotation, translation, u, e1, e2, beam, a, b):
+        """Rays of beams ``beam`` (K,) through tangent-plane offsets (a, b) (K,) around their axes
+        u (B, 3) with bases e1, e2 (B, 3); returns directions (sensor frame), |u + a e1 + b e2|
+        and the intersection results of :meth:`_intersect`."""
+        v = u[beam] + a[:, None] * e1[beam] + b[:, None] * e2[beam]
         norm_v = np.linalg.norm(v, axis=-1)
         d = v / norm_v[:, None]
-        world_d = sensor_pose.transform_vectors(d)
-        origin = np.broadcast_to(sensor_pose.translation, world_d.shape).copy()
-        return d, norm_v, self._intersect(origin, world_d)
+        world_d = _rotate(rotation[beam], d)
+        return d, norm_v, self._intersect(translation[beam], world_d)
 
     def _refine_mask(self, inside, t, n_w, shape):
-        """(n, n) cells to split: a 4-neighbour differs in hit, shape, normal or depth; grown by one."""
+        """(..., n, n) cells to split: a 4-neighbour differs in hit, shape, normal or depth;
+        grown by one. Leading axes (beams) are independent grids."""
         hit = np.isfinite(t)
         cos_max = np.cos(self.settings.refine_normal_angle)
         refine = np.zeros_like(inside)
-        for axis in (0, 1):  # the two grid directions
-            sl_a = (slice(None, -1), slice(None)) if axis == 0 else (slice(None), slice(None, -1))
-            sl_b = (slice(1, None), slice(None)) if axis == 0 else (slice(None), slice(1, None))
+        for axis in (-2, -1):  # the two grid directions
+            sl_a = (Ellipsis, slice(None, -1), slice(None)) if axis == -2 else (Ellipsis, slice(None, -1))
+            sl_b = (Ellipsis, slice(1, None), slice(None)) if axis == -2 else (Ellipsis, slice(1, None))
             both = inside[sl_a] & inside[sl_b]
             both_hit = hit[sl_a] & hit[sl_b]
             depth_a = np.where(hit[sl_a], t[sl_a], 0.0)
             depth_b = np.where(hit[sl_b], t[sl_b], 0.0)
+            n_a = n_w[sl_a + (slice(None),)]
+            n_b = n_w[sl_b + (slice(None),)]
             differ = (hit[sl_a] != hit[sl_b]) | (shape[sl_a] != shape[sl_b]) | (both_hit & (
-                (np.abs(np.sum(n_w[sl_a] * n_w[sl_b], axis=-1)) < cos_max)
+                (np.abs(np.sum(n_a * n_b, axis=-1)) < cos_max)
                 | (np.abs(depth_a - depth_b) > 0.05 * np.maximum(depth_a, depth_b))))
             differ &= both
             refine[sl_a] |= differ
             refine[sl_b] |= differ
         # Grow by one cell (8-neighbourhood): an edge or corner can cross a cell whose own ray
         # and 4-neighbours all agree.
-        return binary_dilation(refine, structure=np.ones((3, 3), bool)) & inside
+        grow = np.ones((1,) * (refine.ndim - 2) + (3, 3), bool)
+        return binary_dilation(refine, structure=grow) & inside
 
     def trace(self, sensor_pose: Pose, direction, seed: int = 0) -> TraceResult:
         """Trace one beam steered to ``direction`` (3,) (sensor frame) from ``sensor_pose``.
@@ -394,20 +403,40 @@ class AcousticTracer:
             direction: unit beam direction in the sensor frame.
             seed: seed of the diffuse phases (same seed, same paths).
         """
+        return self.trace_many([sensor_pose], [direction], [seed])[0]
+
+    def trace_many(self, sensor_poses, directions, seeds) -> list[TraceResult]:
+        """Trace B beams together; the same results as B calls of :meth:`trace`, but every ray
+        cast, shadow-ray test and patch computation runs once for all of them, so the per-call
+        costs (kernel launches, the surface-interaction dispatch) are paid once.
+
+        Args:
+            sensor_poses: B world-from-sensor poses, one per beam (the robot may move).
+            directions: (B, 3) beam directions in each beam's sensor frame.
+            seeds: B seeds of the diffuse phases.
+        """
         g = self.geometry
-        u = _unit(np.asarray(direction, dtype=float))
-        steering = g.steering_delays(u, self.c)
-        rng = np.random.default_rng(seed)
-        e1, e2 = orthonormal_basis(u)
+        s = self.settings
+        u = _unit(np.asarray(directions, dtype=float).reshape(-1, 3))
+        n_beams = len(u)
+        if len(sensor_poses) != n_beams or len(seeds) != n_beams:
+            raise ValueError(f"trace_many: {len(sensor_poses)} poses and {len(seeds)} seeds for "
+                             f"{n_beams} directions")
+        rotation = np.stack([pose.rotation for pose in sensor_poses])  # (B, 3, 3)
+        translation = np.stack([pose.translation for pose in sensor_poses])  # (B, 3)
+        basis = [orthonormal_basis(axis) for axis in u]
+        e1, e2 = np.array([e for e, _ in basis]), np.array([e for _, e in basis])
         aa, bb, da, db, inside = self._grid
-        shape2d = aa.shape
-        d, norm_v, (t, p_w, n_w, mats, shape) = self._cast(sensor_pose, u, e1, e2, aa.ravel(), bb.ravel())
-        a, b, wa, wb = aa.ravel(), bb.ravel(), da.ravel(), db.ravel()
-        keep = inside.ravel().copy()
-        m = self.settings.refine
-        if m > 1 and self.settings.model == "physical":
-            split = (self._refine_mask(inside, t.reshape(shape2d), n_w.reshape(shape2d + (3,)),
-                                       shape.reshape(shape2d)) & self._refinable).ravel()
+        beam = np.repeat(np.arange(n_beams), aa.size)
+        a, b, wa, wb = (np.tile(x.ravel(), n_beams) for x in (aa, bb, da, db))
+        d, norm_v, (t, p_w, n_w, mats, shape) = self._cast(rotation, translation, u, e1, e2, beam, a, b)
+        keep = np.tile(inside.ravel(), n_beams)
+        m = s.refine
+        if m > 1 and s.model == "physical":
+            grids = (n_beams,) + aa.shape
+            split = (self._refine_mask(np.broadcast_to(inside, grids), t.reshape(grids),
+                                       n_w.reshape(grids + (3,)), shape.reshape(grids))
+                     & self._refinable).ravel()
             if np.any(split):
                 keep &= ~split
                 frac = (np.arange(m) + 0.5) / m - 0.5
@@ -416,57 +445,87 @@ class AcousticTracer:
                 cb = (b[split, None] + fb.ravel()[None] * wb[split, None]).ravel()
                 cwa = np.repeat(wa[split] / m, m * m)
                 cwb = np.repeat(wb[split] / m, m * m)
-                cd, cnorm, (ct, cp, cn, cmat, _) = self._cast(sensor_pose, u, e1, e2, ca, cb)
-                a, b, wa, wb = (np.concatenate([x[keep], y]) for x, y in
-                                ((a, ca), (b, cb), (wa, cwa), (wb, cwb)))
-                d, norm_v = np.concatenate([d[keep], cd]), np.concatenate([norm_v[keep], cnorm])
-                t, p_w = np.concatenate([t[keep], ct]), np.concatenate([p_w[keep], cp])
-                n_w, mats = np.concatenate([n_w[keep], cn]), np.concatenate([mats[keep], cmat])
+                cbeam = np.repeat(beam[split], m * m)
+                cd, cnorm, (ct, cp, cn, cmat, _) = self._cast(rotation, translation, u, e1, e2,
+                                                              cbeam, ca, cb)
+                # Per beam: its kept rays in grid order, then its sub-rays.
+                order = np.argsort(np.concatenate([beam[keep], cbeam]), kind="stable")
+                a, b, wa, wb, d, norm_v, t, p_w, n_w, mats, beam = (
+                    np.concatenate([x[keep], y])[order] for x, y in
+                    ((a, ca), (b, cb), (wa, cwa), (wb, cwb), (d, cd), (norm_v, cnorm), (t, ct),
+                     (p_w, cp), (n_w, cn), (mats, cmat), (beam, cbeam)))
                 keep = np.ones(len(a), bool)
+        ray_count = np.bincount(beam[keep], minlength=n_beams)
         hit = keep & np.isfinite(t) & (mats >= 0)
-        to_sensor = sensor_pose.inverse()
-        x = to_sensor.transform_points(p_w[hit])
-        n = _unit(to_sensor.transform_vectors(n_w[hit]))
+        hb = beam[hit]
+        rot_h, trans_h = rotation[hb], translation[hb]
+        x = _rotate(rot_h, p_w[hit] - trans_h, inverse=True)
+        n = _unit(_rotate(rot_h, n_w[hit], inverse=True))
         d_h = d[hit]
         n = np.where(_rows_dot(d_h, n)[:, None] > 0, -n, n)  # face the incoming ray
         mats_h = mats[hit]
         taper = self._taper(a[hit], b[hit])
-        visible = self._visibility(sensor_pose, x, n)
+        visible = self._visibility(rot_h, trans_h, x, n)
         tx_virtual = np.broadcast_to(g.tx_positions[None], (len(x),) + g.tx_positions.shape)
         inv = (1.0 / norm_v[hit])[:, None]
-        dd1 = (e1[None] - d_h * (d_h @ e1)[:, None]) * inv * wa[hit][:, None]
-        dd2 = (e2[None] - d_h * (d_h @ e2)[:, None]) * inv * wb[hit][:, None]
-        parts = [self._scatter(x, n, mats_h, d_h, dd1, dd2, t[hit], tx_virtual, x, steering,
-                               taper.astype(complex), visible, rng)]
-        if self.settings.max_bounces == 2 and self.settings.model == "physical":
-            parts += self._second_bounce(sensor_pose, x, n, mats_h, d_h, dd1, dd2, t[hit],
-                                         taper, steering, rng)
-        paths = HitPaths.concatenate(parts)
-        return TraceResult(paths, x, mats_h, int(keep.sum()))
+        dd1 = (e1[hb] - d_h * _rows_dot(d_h, e1[hb])[:, None]) * inv * wa[hit][:, None]
+        dd2 = (e2[hb] - d_h * _rows_dot(d_h, e2[hb])[:, None]) * inv * wb[hit][:, None]
+        steering = g.steering_delays(u, self.c)[hb]  # (H, N_tx)
+        rngs = [np.random.default_rng(seed) for seed in seeds]
+        parts = [(hb, self._scatter(x, n, mats_h, d_h, dd1, dd2, t[hit], tx_virtual, x, steering,
+                                    taper.astype(complex), visible, self._roughness(mats_h, hb, rngs)))]
+        if s.max_bounces == 2 and s.model == "physical":
+            parts += self._second_bounce(rotation, translation, hb, x, n, mats_h, d_h, dd1, dd2,
+                                         t[hit], taper, steering, rngs)
+        results = []
+        bounds = [np.searchsorted(part_beam, np.arange(n_beams + 1)) for part_beam, _ in parts]
+        for k in range(n_beams):  # split into beams (hits are ordered by beam)
+            rows = [slice(bound[k], bound[k + 1]) for bound in bounds]
+            paths = HitPaths.concatenate([part.select(r) for (_, part), r in zip(parts, rows)])
+            results.append(TraceResult(paths, x[rows[0]], mats_h[rows[0]], int(ray_count[k])))
+        return results
 
-    def _visibility(self, sensor_pose: Pose, points, normals) -> np.ndarray:
-        """(H, N_rx) 1.0 where receive element j sees hit h, else 0.0."""
+    def _roughness(self, mats, beam, rngs) -> np.ndarray:
+        """(H,) unit phasors of the diffuse parts of hits of beams ``beam`` (H,) (ordered by
+        beam): uniform random phases drawn from each beam's generator ``rngs[b]`` in hit order,
+        ones for beams without diffuse hits (and for the paper model, which has no diffuse part)."""
+        out = np.ones(len(mats), dtype=complex)
+        if self.settings.model == "paper":
+            return out
+        bounds = np.searchsorted(beam, np.arange(len(rngs) + 1))
+        diffuse = self._scattering[mats] > 0
+        for k, rng in enumerate(rngs):  # per beam: one draw for all its hits
+            rows = slice(bounds[k], bounds[k + 1])
+            if np.any(diffuse[rows]):
+                out[rows] = np.exp(2j * np.pi * rng.uniform(0.0, 1.0, bounds[k + 1] - bounds[k]))
+        return out
+
+    def _visibility(self, rotation, translation, points, normals) -> np.ndarray:
+        """(H, N_rx) 1.0 where receive element j sees hit h, else 0.0; points and normals (H, 3)
+        in the sensor frame of poses (rotation (H, 3, 3), translation (H, 3))."""
         rx = self.geometry.rx_positions
         if not self.settings.shadow_rays or len(points) == 0:
             return np.ones((len(points), len(rx)))
-        start = np.repeat(points + _EPS * normals, len(rx), axis=0)
-        ends = np.tile(rx, (len(points), 1))
-        vis = self._visible(sensor_pose.transform_points(start), sensor_pose.transform_points(ends))
+        start = _rotate(rotation, points + _EPS * normals) + translation  # (H, 3) world
+        ends = np.einsum("hik,jk->hji", rotation, rx) + translation[:, None, :]  # (H, N_rx, 3)
+        vis = self._visible(np.repeat(start, len(rx), axis=0), ends.reshape(-1, 3))
         return vis.reshape(len(points), len(rx)).astype(float)
 
-    def _second_bounce(self, sensor_pose, x1, n1, mats1, d1, dd1, dd2, t1, taper, steering,
-                       rng) -> list[HitPaths]:
-        """Specular continuation of every first-bounce ray, scattered at its second hit."""
+    def _second_bounce(self, rotation, translation, beam, x1, n1, mats1, d1, dd1, dd2, t1, taper,
+                       steering, rngs) -> list[tuple[np.ndarray, HitPaths]]:
+        """Specular continuation of every first-bounce ray, scattered at its second hit:
+        [(beam of each second hit, paths)], or [] when no ray hits again."""
         reflect = lambda v: v - 2 * _rows_dot(v, n1)[:, None] * n1  # noqa: E731
         d2 = reflect(d1)
-        start = sensor_pose.transform_points(x1 + _EPS * n1)
-        t, p_w, n_w, mats, _ = self._intersect(start, sensor_pose.transform_vectors(d2))
+        rot, trans = rotation[beam], translation[beam]
+        start = _rotate(rot, x1 + _EPS * n1) + trans
+        t, p_w, n_w, mats, _ = self._intersect(start, _rotate(rot, d2))
         hit = np.isfinite(t) & (mats >= 0)
         if not np.any(hit):
             return []
-        to_sensor = sensor_pose.inverse()
-        x2 = to_sensor.transform_points(p_w[hit])
-        n2 = _unit(to_sensor.transform_vectors(n_w[hit]))
+        rot, trans = rot[hit], trans[hit]
+        x2 = _rotate(rot, p_w[hit] - trans, inverse=True)
+        n2 = _unit(_rotate(rot, n_w[hit], inverse=True))
         d2h = d2[hit]
         n2 = np.where(_rows_dot(d2h, n2)[:, None] > 0, -n2, n2)
         m1 = mats1[hit]
@@ -475,12 +534,14 @@ class AcousticTracer:
         plane_pt, plane_n = x1[hit], n1[hit]
         tx_image = tx[None] - 2 * _rows_dot(tx[None] - plane_pt[:, None], plane_n[:, None])[..., None] \
             * plane_n[:, None, :]
-        visible = self._visibility(sensor_pose, x2, n2)
+        visible = self._visibility(rot, trans, x2, n2)
         n1h = n1[hit]
         refl = lambda v: v - 2 * _rows_dot(v, n1h)[:, None] * n1h  # noqa: E731
-        return [self._scatter(x2, n2, mats[hit], d2h, refl(dd1[hit]), refl(dd2[hit]),
-                              t1[hit] + t[hit] + _EPS, tx_image, plane_pt, steering,
-                              (taper[hit] * r1).astype(complex), visible, rng)]
+        mats2 = mats[hit]
+        return [(beam[hit], self._scatter(
+            x2, n2, mats2, d2h, refl(dd1[hit]), refl(dd2[hit]), t1[hit] + t[hit] + _EPS, tx_image,
+            plane_pt, steering[hit], (taper[hit] * r1).astype(complex), visible,
+            self._roughness(mats2, beam[hit], rngs)))]
 
     def direct_paths(self, direction) -> Paths:
         """Direct transmitter -> receiver paths (cross-talk) for a beam steered to ``direction``."""

@@ -232,6 +232,37 @@ def test_same_seed_same_echoes_and_open_directions_detect_nothing(scene_file):
     assert np.all(np.isnan(miss.detection.point))
 
 
+def test_beams_traced_together_equal_beams_traced_alone(scene_file):
+    """trace_many (one batch of ray casts for all beams, each with its own pose and seed) gives
+    each beam exactly what trace gives it alone, with refinement, diffuse phases and the second
+    bounce; a scan gives the pings' detections."""
+    d, s45 = 2.0, np.sqrt(0.5)
+    path = scene_file("batch", material_xml("m", **RIGID), material_xml("w", preset="drywall"),
+                      rectangle_xml("m", (0.5 * s45, 0, d - 0.5 * s45), (0, 45, 0), size=(1.0, 2.0)),
+                      rectangle_xml("m", (-0.5 * s45, 0, d - 0.5 * s45), (0, -45, 0), size=(1.0, 2.0)),
+                      rectangle_xml("w", (0.6, 0.3, 1.5), (0, -20, 0), size=(0.8, 0.8)),
+                      sphere_xml("w", (-0.5, 0.1, 1.2), 0.1))
+    sonar = mitsonar.Sonar(path, mitsonar.SonarConfig(trace=mitsonar.TraceSettings(max_bounces=2)))
+    directions = sonar.fov_grid(np.radians(12.0))
+    poses = [mitsonar.Pose.planar(0.02 * k, 0.01 * k, 0.03 * k) @ IDENTITY for k in range(len(directions))]
+    seeds = list(range(10, 10 + len(directions)))
+    together = sonar.tracer.trace_many(poses, directions, seeds)
+    assert sum(len(t.hit_points) for t in together) > 1000
+    for pose, u, seed, batch in zip(poses, directions, seeds, together):
+        alone = sonar.tracer.trace(pose, u, seed)
+        assert batch.ray_count == alone.ray_count
+        np.testing.assert_allclose(batch.hit_points, alone.hit_points, rtol=0, atol=1e-12)
+        np.testing.assert_array_equal(batch.hit_materials, alone.hit_materials)
+        for name in ("tx_delay", "rx_delay", "tx_specular", "tx_diffuse", "rx_diffuse", "diffuse"):
+            a, b = getattr(batch.paths, name), getattr(alone.paths, name)
+            np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-12 * np.abs(b).max(initial=1.0))
+    scan = sonar.scan(IDENTITY, directions[:10], seed=3)
+    pings = [sonar.ping(IDENTITY, u, seed=mitsonar.sonar._beam_seed(3, b))
+             for b, u in enumerate(directions[:10])]
+    np.testing.assert_array_equal(scan.depth, [p.detection.depth for p in pings])
+    assert np.isfinite(scan.depth).sum() >= 3
+
+
 def test_bad_pose_and_direction_are_rejected(scene_file):
     sonar = mitsonar.Sonar(scene_file("w", material_xml("w", preset="drywall"),
                                       rectangle_xml("w", (0, 0, 2.0))))
