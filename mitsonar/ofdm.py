@@ -329,15 +329,15 @@ class OfdmSonar:
         offsets = schedule.transmit_time[beams] - t0  # firing times within the cycle
         codes = [schedule.codes[k] for k in schedule.code_index[beams]]
         poses = [pose_at(start_time + schedule.transmit_time[b]) for b in beams]
-        traces = [trace for first in range(0, len(beams), TRACE_BATCH)
-                  for trace in sonar.tracer.trace_many(
-                      poses[first:first + TRACE_BATCH],
-                      schedule.directions[beams[first:first + TRACE_BATCH]],
-                      [_seed(seed, b) for b in beams[first:first + TRACE_BATCH]])]
         echo_spectra = []
-        for trace, offset, code in zip(traces, offsets, codes):  # each beam's echoes, vectorised
-            groups = [(p.delayed(offset), w) for p, w in sonar.echo_groups(trace.paths, code, self.synth)]
-            echo_spectra.append(self.synth.groups_spectrum(groups, n_rx))
+        for first in range(0, len(beams), TRACE_BATCH):  # beams traced a batch at a time
+            batch = slice(first, first + TRACE_BATCH)
+            traces = sonar.tracer.trace_many(poses[batch], schedule.directions[beams[batch]],
+                                             [_seed(seed, b) for b in beams[batch]])
+            for trace, offset, code in zip(traces, offsets[batch], codes[batch]):
+                groups = [(p.delayed(offset), w)
+                          for p, w in sonar.echo_groups(trace.paths, code, self.synth)]
+                echo_spectra.append(self.synth.groups_spectrum(groups, n_rx))
         direct_total = self.synth.groups_spectrum(
             [(sonar.tracer.direct_paths(schedule.directions[b]).delayed(offset), code)
              for b, offset, code in zip(beams, offsets, codes)], n_rx)

@@ -29,7 +29,8 @@ beta ``paper_beta``, R the energy coefficient (4); no air absorption unless aske
 
 Everything after the intersections is NumPy on (hits x elements) arrays, kept factored per transmit
 and receive element (:class:`~mitsonar.hitpaths.HitPaths`); no Python loop runs over
-rays, paths or samples.
+rays, paths or samples. :meth:`AcousticTracer.trace_many` runs every step once for the hits of a
+batch of beams (each with its own pose and seed), which pays the per-call costs once.
 """
 
 from __future__ import annotations
