@@ -33,7 +33,8 @@ from .validation import check_positive
 #: negative for half the elements).
 PRE_ROLL = 0.5e-3
 #: Beams traced together by scans and OFDM cycles: enough to pay the per-call costs of the ray
-#: casts once for several beams, few enough to bound memory (~10 MB of patch factors per beam).
+#: casts once for several beams, few enough to bound memory (~20 MB of patch factors and
+#: temporaries per beam).
 TRACE_BATCH = 8
 
 
