@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 
 import mitsonar
+from mitsonar.jit import rays
 from mitsonar.ofdm import OfdmSonar
 from mitsonar.reference import direct_summation
 from mitsonar.sonar import TRACE_BATCH
@@ -43,7 +44,6 @@ def tracer_vs_ray_intersect(sonar, pose, directions):
     tracer = sonar.tracer
     k = len(directions)
     t_trace, results = _timed(lambda: tracer.trace_many([pose] * k, directions, range(k)), repeat=5)
-    mi = tracer.mi
     n = sum(result.ray_count for result in results)
     d = np.random.default_rng(0).normal(size=(n, 3))
     d[:, 2] = np.abs(d[:, 2]) + 2
@@ -53,9 +53,7 @@ def tracer_vs_ray_intersect(sonar, pose, directions):
     def bare():
         import drjit as dr
 
-        ray = mi.Ray3f(mi.Point3f(*[mi.Float(np.full(n, o[k])) for k in range(3)]),
-                       mi.Vector3f(*[mi.Float(d[:, k]) for k in range(3)]))
-        si = sonar.scene.scene.ray_intersect(ray)
+        si = sonar.scene.scene.ray_intersect(rays(o, d))  # aligned inputs, as the tracer's
         dr.eval(si.t)
         return np.asarray(si.t)
 

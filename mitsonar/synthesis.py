@@ -266,7 +266,7 @@ class EchoSynthesizer:
         size = n_channels * self.n_fft
         gain = np.asarray(paths.gain)[keep]
         inv_var = 1.0 / self.sigma**2
-        omega = 2 * np.pi * paths.carrier
+        omega = 2 * np.pi * paths.carrier  # [rad/s]
         # |j omega g(x) - fs g'(x)| <= omega + fs |x| / sigma^2 over the taps, |x| <= half_width + 1.
         slope = None if paths.first_order is None else np.asarray(paths.first_order)[keep]
         bound = np.abs(gain) if slope is None else \
@@ -282,6 +282,7 @@ class EchoSynthesizer:
         if slope is not None:
             slope_re = to_jit(Float64, slope.real * scale)
             slope_im = to_jit(Float64, slope.imag * scale)
+            omega_jit = dr.opaque(Float64, omega)  # a variable, not a literal: one kernel for all carriers
         row = to_jit(Int64, channel) * self.n_fft
         base = Int64(dr.floor(pos))
         acc_re = dr.zeros(Int64, size)
@@ -293,8 +294,8 @@ class EchoSynthesizer:
             value_re, value_im = gain_re, gain_im
             if slope is not None:  # b (j omega + fs x / sigma^2)
                 k = (self.sample_rate * inv_var) * x
-                value_re = value_re + slope_re * k - slope_im * omega
-                value_im = value_im + slope_im * k + slope_re * omega
+                value_re = value_re + slope_re * k - slope_im * omega_jit
+                value_im = value_im + slope_im * k + slope_re * omega_jit
             flat = UInt32(row + (idx + self.n_fft) % self.n_fft)
             dr.scatter_reduce(dr.ReduceOp.Add, acc_re, Int64(dr.round(weight * value_re)), flat)
             dr.scatter_reduce(dr.ReduceOp.Add, acc_im, Int64(dr.round(weight * value_im)), flat)
