@@ -15,8 +15,9 @@ directions). :class:`HitPaths` stores the factors, (H, N_tx) and (H, N_rx) array
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-from functools import cached_property
+from functools import cache, cached_property
 
+import drjit as dr
 import numpy as np
 
 from .jit import to_jit
@@ -142,8 +143,7 @@ class HitPaths:
     def narrowband_many(self, frequencies) -> list[Paths]:
         """:meth:`narrowband` about each of ``frequencies`` [Hz] (an OFDM code's tones), in one
         kernel: the element-pair gains are formed once for all of them."""
-        import drjit as dr
-        from drjit.llvm import Float32, UInt32
+        from drjit.llvm import Float32
 
         n_tx, n_rx = self.elements
         n_hits = len(self.tx_delay)
@@ -151,17 +151,40 @@ class HitPaths:
             return [Paths.empty() for _ in frequencies]
         # Transmit delays relative to their patch mean (|tau| <~ 0.2 ms): exact in single precision.
         tx_mean = self.tx_delay.mean(axis=1, keepdims=True)
-        tau = self.tx_delay - tx_mean
         f32 = lambda a: to_jit(Float32, a)  # noqa: E731
         # Per (patch, receive element) thread: receive factors with the patch factors folded in.
         rx_s = self.rx_specular * self.specular[:, None]
         rx_d = self.rx_diffuse * self.diffuse[:, None]
-        q_re, q_im, v_re, v_im = f32(rx_s.real), f32(rx_s.imag), f32(rx_d.real), f32(rx_d.imag)
-        d, b1, b2 = f32(self.rx_cos), f32(self.rx_sinc[..., 0]), f32(self.rx_sinc[..., 1])
+        rx = [f32(x) for x in (rx_s.real, rx_s.imag, rx_d.real, rx_d.imag, self.rx_cos,
+                               self.rx_sinc[..., 0], self.rx_sinc[..., 1])]
         tx = [f32(x) for x in (self.tx_specular.real, self.tx_specular.imag, self.tx_diffuse.real,
                                self.tx_diffuse.imag, self.tx_cos, self.tx_sinc[..., 0],
-                               self.tx_sinc[..., 1], tau)]
-        row = (dr.arange(UInt32, n_hits * n_rx) // n_rx) * n_tx
+                               self.tx_sinc[..., 1], self.tx_delay - tx_mean)]
+        # Opaque carriers: variables, not literals, so one kernel serves every tone.
+        omegas = [dr.opaque(Float32, -2.0 * np.pi * f) for f in frequencies]
+        mean_tau, sums = _merge_kernel()(tx, rx, omegas, n_tx, n_rx)
+        centre = (self.rx_delay + tx_mean + mean_tau.numpy().reshape(n_hits, n_rx)).ravel()
+        channel = np.tile(np.arange(n_rx), n_hits)
+        return [Paths(a_re.numpy().astype(float) + 1j * a_im.numpy(), centre, channel,
+                      first_order=b_re.numpy().astype(float) + 1j * b_im.numpy(),
+                      carrier=float(frequency))
+                for frequency, (a_re, a_im, b_re, b_im) in zip(frequencies, sums)]
+
+
+@cache
+def _merge_kernel():
+    """The fused kernel of :meth:`HitPaths.narrowband_many`, frozen (``drjit.freeze``): traced
+    once per (tone count, element counts), then replayed without Python tracing.
+
+    Arguments: the 8 transmit factors (H x N_tx,) and 7 receive factors (H x N_rx,) as listed
+    there, the tones' -2 pi f [rad/s], N_tx, N_rx. Returns the mean delay offset per thread [s]
+    and (a_re, a_im, b_re, b_im) per tone.
+    """
+    from drjit.llvm import Float32, UInt32
+
+    def merge(tx, rx, omegas, n_tx, n_rx):
+        q_re, q_im, v_re, v_im, d, b1, b2 = rx
+        row = (dr.arange(UInt32, dr.width(d)) // n_rx) * n_tx
         gains = []
         for i in range(n_tx):  # the transmit elements of each thread's patch (unrolled)
             p_re, p_im, u_re, u_im, c, a1, a2, tau_i = (dr.gather(Float32, x, row + i) for x in tx)
@@ -174,8 +197,7 @@ class HitPaths:
         mean_tau = dr.select(total > 0, sum(w * t for w, (_, _, t) in zip(weight, gains))
                              / dr.select(total > 0, total, 1.0), 0.0)
         sums = []
-        for frequency in frequencies:
-            omega = dr.opaque(Float32, -2.0 * np.pi * frequency)  # opaque: one kernel for all tones
+        for omega in omegas:
             a_re = a_im = b_re = b_im = Float32(0.0)
             for g_re, g_im, tau_i in gains:
                 offset = tau_i - mean_tau
@@ -184,19 +206,13 @@ class HitPaths:
                 a_re, a_im = a_re + c_re, a_im + c_im
                 b_re, b_im = b_re + c_re * offset, b_im + c_im * offset
             sums.append((a_re, a_im, b_re, b_im))
-        dr.eval(mean_tau, *(x for four in sums for x in four))
-        centre = (self.rx_delay + tx_mean + mean_tau.numpy().reshape(n_hits, n_rx)).ravel()
-        channel = np.tile(np.arange(n_rx), n_hits)
-        return [Paths(a_re.numpy().astype(float) + 1j * a_im.numpy(), centre, channel,
-                      first_order=b_re.numpy().astype(float) + 1j * b_im.numpy(),
-                      carrier=float(frequency))
-                for frequency, (a_re, a_im, b_re, b_im) in zip(frequencies, sums)]
+        return mean_tau, sums
+
+    return dr.freeze(merge)
 
 
 def _sinc_dr(x):
     """sinc(x) = sin(pi x) / (pi x) on Dr.Jit arrays (1 near 0)."""
-    import drjit as dr
-
     pix = np.pi * x
     small = dr.abs(x) < 1e-4
     return dr.select(small, 1.0, dr.sin(pix) / dr.select(small, 1.0, pix))

@@ -7,7 +7,9 @@ Order and choices:
   domain (fractional delays without interpolation error).
 * Matched filter (6) with the expected echo shape (drive pulse through both transducer
   responses), normalised so that an echo of path gain A gives an envelope peak of |A| [Pa].
-  Beamforming and filtering share one FFT per channel and one inverse FFT.
+  Beamforming and filtering share one FFT per channel and one inverse FFT, and are computed on
+  the signal band only (:attr:`EchoSynthesizer.band <mitsonar.synthesis.EchoSynthesizer.band>`,
+  ~1/5 of the bins; the matched filter is zero elsewhere).
 * Envelope = |analytic output|; time of arrival at its strongest peak, refined by a parabola
   through the three samples around it.
 * Detection: candidates are the envelope's local maxima beyond ``min_range`` that exceed
@@ -164,18 +166,21 @@ class EchoProcessor:
         self._ghost_grid = direction_from_fov_angles(hh, vv).reshape(-1, 3)
         self._ghost_operators = {}
         self._last_spectra = (None, None)
+        self._band_freq = synthesizer.frequencies[synthesizer.band]  # (nb,) [Hz]
         # W [samples] of :meth:`_delay_and_sum`: the largest receive delay (5), rounded up, + 1.
         self._window_lag = int(np.ceil(
             np.linalg.norm(geometry.rx_positions - geometry.rx_origin, axis=1).max()
             / self.c * synthesizer.sample_rate)) + 1
 
     def _matched_filter(self, waveform=None):
-        """(filter spectrum, template energy) of a waveform: 2 conj(W) / E, E = sum |w_a|^2."""
+        """(filter spectrum on the band (nb,), template energy) of a waveform: 2 conj(W) / E,
+        E = sum |w_a|^2."""
         key = self.synth.pulse if waveform is None else waveform
         if key not in self._filters:
             w = self.synth.system_spectrum(key)
             energy = float(np.sum(np.abs(w) ** 2)) / self.synth.n_fft  # Parseval
-            self._filters[key] = (2.0 * np.conj(w) / energy, energy)  # 2: analytic of a real signal
+            # 2: analytic of a real signal
+            self._filters[key] = (2.0 * np.conj(w[self.synth.band]) / energy, energy)
         return self._filters[key]
 
     def noise_envelope_rms(self, waveform=None) -> float:
@@ -190,22 +195,29 @@ class EchoProcessor:
         return -(np.asarray(directions, dtype=float) @ (g.rx_positions - g.rx_origin).T) / self.c
 
     def _spectra(self, recording: Recording) -> np.ndarray:
-        """FFT (N_rx, n_fft) of the recording's channels. The last recording's is kept: an OFDM
-        cycle decodes every beam and tone from one recording."""
+        """FFT of the recording's channels on the band, (N_rx, nb). The last recording's is kept:
+        an OFDM cycle decodes every beam and tone from one recording."""
         if self._last_spectra[0] is not recording:
-            self._last_spectra = (recording, sfft.fft(recording.samples, n=self.synth.n_fft,
-                                                      axis=-1, workers=-1))
+            spectra = sfft.rfft(recording.samples, n=self.synth.n_fft, axis=-1, workers=-1)
+            self._last_spectra = (recording, spectra[:, self.synth.band])
         return self._last_spectra[1]
 
     def compressed_spectra(self, recording: Recording, waveform=None) -> np.ndarray:
-        """Matched-filtered analytic spectra of all channels, (N_rx, n_fft)."""
+        """Matched-filtered analytic spectra of all channels on the band, (N_rx, nb)."""
         return self._spectra(recording) * self._matched_filter(waveform)[0]
 
+    def _to_time(self, band_spectra: np.ndarray, n_samples: int) -> np.ndarray:
+        """Analytic signals (..., n_samples) of spectra (..., nb) given on the band."""
+        full = np.zeros(band_spectra.shape[:-1] + (self.synth.n_fft,), dtype=complex)
+        full[..., self.synth.band] = band_spectra
+        return sfft.ifft(full, axis=-1, workers=-1)[..., :n_samples]
+
     def beamform(self, spectra: np.ndarray, n_samples: int, direction) -> np.ndarray:
-        """Delay-and-sum of compressed spectra towards ``direction`` (3,): analytic (N,) [Pa]."""
-        f = sfft.fftfreq(self.synth.n_fft, 1.0 / self.synth.sample_rate)
-        steer = phasor(2 * np.pi * f[None, :] * self.receive_delays(direction)[:, None])  # < 2e2 rad
-        return sfft.ifft((spectra * steer).mean(axis=0))[:n_samples]
+        """Delay-and-sum of compressed spectra (N_rx, nb) towards ``direction`` (3,): analytic
+        (N,) [Pa]."""
+        delays = self.receive_delays(direction)
+        steer = phasor(2 * np.pi * self._band_freq[None, :] * delays[:, None])  # < 2e2 rad
+        return self._to_time((spectra * steer).mean(axis=0), n_samples)
 
     def envelope(self, recording: Recording, direction, waveform=None) -> np.ndarray:
         """Envelope (N,) [Pa] of the beamformed, matched-filtered recording."""
@@ -219,14 +231,15 @@ class EchoProcessor:
         noiseless recording, except that echoes are not cut at the recording's end."""
         # The real recording's spectrum is half the analytic one at positive frequencies, where
         # the matched filter (2 conj(W) / E) lives.
-        return np.abs(self.beamform(0.5 * spectrum * self._matched_filter(waveform)[0],
+        band = spectrum[:, self.synth.band]
+        return np.abs(self.beamform(0.5 * band * self._matched_filter(waveform)[0],
                                     self.synth.n_samples, direction))
 
     def _baseband(self, spectra, n: int, start_time: float, carrier: float) -> np.ndarray:
-        """(N_rx, n) analytic channels of compressed ``spectra`` (N_rx, n_fft) demodulated at
+        """(N_rx, n) analytic channels of compressed ``spectra`` (N_rx, nb) demodulated at
         ``carrier`` [Hz]; their first sample is at ``start_time`` [s]."""
         t = start_time + np.arange(n) / self.synth.sample_rate
-        return sfft.ifft(spectra, axis=-1, workers=-1)[:, :n] * np.exp(-2j * np.pi * carrier * t)
+        return self._to_time(spectra, n) * np.exp(-2j * np.pi * carrier * t)
 
     def _delay_and_sum(self, directions, carrier: float, fraction: float = 0.0):
         """Narrow-band delay-and-sum towards directions (D, 3) as a sparse (D, N_rx x L) matrix
@@ -243,10 +256,11 @@ class EchoProcessor:
         n_rx = delays.shape[1]
         cols = np.arange(n_rx)[None, :] * (2 * lag + 2) + lag + i0
         phase = np.exp(2j * np.pi * carrier * delays)
-        rows = np.broadcast_to(np.arange(len(delays))[:, None], delays.shape)
-        data = np.concatenate([((1 - frac) * phase).ravel(), (frac * phase).ravel()])
-        return sparse.csr_matrix((data, (np.tile(rows.ravel(), 2),
-                                         np.concatenate([cols.ravel(), cols.ravel() + 1]))),
+        # Built directly in CSR form: row d holds (1 - frac) and frac at columns c, c + 1 per channel.
+        data = np.stack([(1 - frac) * phase, frac * phase], axis=-1).reshape(len(delays), -1)
+        columns = np.stack([cols, cols + 1], axis=-1).reshape(len(delays), -1)
+        return sparse.csr_matrix((data.ravel(), columns.ravel(),
+                                  np.arange(len(delays) + 1) * 2 * n_rx),
                                  shape=(len(delays), n_rx * (2 * lag + 2)))
 
     def _windows(self, baseband, samples) -> np.ndarray:
@@ -331,9 +345,9 @@ class EchoProcessor:
             start_time: time of its first sample [s].
             direction: (3,) beam direction in the sensor frame.
             direct_envelope: (N,) envelope of the direct path alone, for blanking (optional).
-            looks: (compressed channel spectra (N_rx, n_fft), carrier [Hz]) pairs for the side-lobe
-                check, which a candidate must pass in every look (optional; without them every
-                candidate is taken to arrive along the beam).
+            looks: (compressed channel spectra (N_rx, nb) on the band, carrier [Hz]) pairs for
+                the side-lobe check, which a candidate must pass in every look (optional; without
+                them every candidate is taken to arrive along the beam).
             waveform: the beam's drive waveform (sets the noise level).
             transmit_time: when the beam was fired [s]; times of arrival are counted from it.
             max_path_length: ignore echoes with a longer path [m].

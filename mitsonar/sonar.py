@@ -249,8 +249,9 @@ class Sonar:
         n_rx = self.config.geometry.rx.count
         direct = self.tracer.direct_paths(u)
         groups = self.echo_groups(trace.paths, self.config.pulse) + [(direct, self.config.pulse)]
-        recording = self.synthesizer.recording(self.synthesizer.analytic_sum(groups, n_rx),
-                                               self.config.noise_rms, seed=[seed, 1])
+        synth = self.synthesizer
+        recording = synth.recording(synth.to_real(synth.groups_spectrum(groups, n_rx)),
+                                    self.config.noise_rms, seed=[seed, 1])
         key = tuple(np.round(u, 12))
         if key not in self._direct_envelopes:  # depends on the direction only: computed once
             self._direct_envelopes[key] = self.processor.envelope(

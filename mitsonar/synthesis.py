@@ -16,6 +16,7 @@ Fractional delays are exact up to the stated tolerance, far below one sample.
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from functools import cache
 
 import numpy as np
 import scipy.fft as sfft
@@ -30,6 +31,49 @@ def phasor(angle) -> np.ndarray:
     phase error ~6e-8 |angle| [rad], so meant for angles up to ~1e3 rad."""
     angle = np.asarray(angle, dtype=np.float32)
     return np.cos(angle) + 1j * np.sin(angle)
+
+
+@cache
+def _spread_kernel():
+    """The gridding kernel of :meth:`EchoSynthesizer.impulse_grid`, frozen (``drjit.freeze``):
+    traced once per kernel shape, then replayed without Python tracing whatever the path count.
+
+    Arguments: the flat grid's size, positions (M,) [samples], row offsets (M,) into the flat
+    grid, (re, im) gains, None or (re, im, carrier [rad/s]) of the first-order terms, n_fft,
+    half_width [taps], 1/sigma^2, fs/sigma^2. Returns the (re, im) Int64 grids. (Each grid size
+    is a separate recording: the grids are made inside, as scatter targets passed in would be
+    replayed at the recorded size.)
+    """
+    import drjit as dr
+    from drjit.llvm import Float64, Int64, UInt32
+
+    def spread(size, pos, row, gain, first_order, n_fft, half_width, inv_var, rate_inv_var):
+        acc = (dr.zeros(Int64, size), dr.zeros(Int64, size))
+        base = Int64(dr.floor(pos))
+        frac = pos - Float64(base)  # in [0, 1)
+        # Fast Gaussian gridding: g(k - frac) = exp(-k^2 / 2 sigma^2) exp(k frac / sigma^2)
+        # exp(-frac^2 / 2 sigma^2): two exponentials per path serve every tap k (powers of
+        # exp(frac / sigma^2) by multiplication; relative rounding ~1e-15 per tap).
+        common = dr.exp(-0.5 * inv_var * dr.square(frac))
+        growth = dr.exp(inv_var * frac)
+        power = {0: common}
+        for k in range(1, half_width + 1):
+            power[k] = power[k - 1] * growth
+            power[-k] = power[1 - k] / growth
+        for k in range(-half_width, half_width + 1):  # kernel taps (a fixed, small count)
+            weight = power[k] * float(np.exp(-0.5 * k * k * inv_var))
+            value_re, value_im = gain
+            if first_order is not None:  # b (j omega + fs x / sigma^2), x = k - frac
+                slope_re, slope_im, omega = first_order
+                x = rate_inv_var * (k - frac)
+                value_re = value_re + slope_re * x - slope_im * omega
+                value_im = value_im + slope_im * x + slope_re * omega
+            flat = UInt32(row + (base + (k + n_fft)) % n_fft)
+            dr.scatter_reduce(dr.ReduceOp.Add, acc[0], Int64(dr.round(weight * value_re)), flat)
+            dr.scatter_reduce(dr.ReduceOp.Add, acc[1], Int64(dr.round(weight * value_im)), flat)
+        return acc
+
+    return dr.freeze(spread)
 
 
 @dataclass(frozen=True)
@@ -201,8 +245,13 @@ class EchoSynthesizer:
         self.n_fft = sfft.next_fast_len(self.n_samples + guard)
         self._freq = np.fft.fftfreq(self.n_fft, 1.0 / sample_rate)
         self._spectra = {}
-        nu_max = max(np.abs(self._freq[self.system_spectrum(w) != 0]).max()
-                     for w in (pulse,) + tuple(waveforms)) / sample_rate
+        self.band = None
+        nonzero = np.flatnonzero(np.any([self.system_spectrum(w) != 0
+                                         for w in (pulse,) + tuple(waveforms)], axis=0))
+        #: Bins [Hz: ``frequencies``] spanning the bands of every waveform served: spectra are
+        #: zero outside, so filtering and beamforming are computed here only.
+        self.band = slice(int(nonzero[0]), int(nonzero[-1]) + 1)
+        nu_max = self._freq[nonzero[-1]] / sample_rate
         # Gaussian kernel (sigma in samples): aliasing from the images at fs - f stays below the
         # tolerance, and truncation stays below it after the deconvolution gain at nu_max.
         log_tol = np.log(1.0 / tolerance)
@@ -211,11 +260,16 @@ class EchoSynthesizer:
         self.half_width = int(np.ceil(self.sigma * np.sqrt(2 * np.log(deconv_gain / tolerance))))
         nu = self._freq / sample_rate
         self._kernel_ft = self.sigma * np.sqrt(2 * np.pi) * np.exp(-2 * np.pi**2 * self.sigma**2 * nu**2)
-        self._offsets = np.arange(-self.half_width, self.half_width + 1)
+
+    @property
+    def frequencies(self) -> np.ndarray:
+        """(n_fft,) frequencies of the FFT bins [Hz]."""
+        return self._freq
 
     def system_spectrum(self, waveform=None) -> np.ndarray:
         """Analytic spectrum W(f) of the expected echo of a unit path (drive x H_tx x H_rx) on
-        the FFT grid, scaled per sample; zero outside the band. Cached per waveform."""
+        the FFT grid, scaled per sample; zero outside the band. Cached per waveform; a waveform
+        not given to the constructor must lie within :attr:`band`."""
         waveform = self.pulse if waveform is None else waveform
         if waveform not in self._spectra:
             f = self._freq
@@ -225,7 +279,11 @@ class EchoSynthesizer:
             if self.transducer_response:
                 w[positive] *= self.transducer.frequency_response(f[positive]) ** 2
             band = (np.abs(w) > self.band_threshold * np.abs(w).max()) & (np.abs(f) < 0.4 * self.sample_rate)
-            self._spectra[waveform] = np.where(band, w, 0.0)
+            w = np.where(band, w, 0.0)
+            if self.band is not None and (np.any(w[: self.band.start]) or np.any(w[self.band.stop:])):
+                raise ValueError(f"waveform {waveform!r} has a wider band than the synthesizer was "
+                                 f"built for; pass it in EchoSynthesizer(waveforms=...)")
+            self._spectra[waveform] = w
         return self._spectra[waveform]
 
     def band_moments(self, waveform=None) -> tuple[float, float]:
@@ -256,7 +314,7 @@ class EchoSynthesizer:
         on the order the threads add them in: the same paths give bit-identical recordings.
         """
         import drjit as dr
-        from drjit.llvm import Float64, Int64, UInt32
+        from drjit.llvm import Float64, Int64
 
         u = (np.asarray(paths.delay) - self.start_time) * self.sample_rate
         keep = (u > -self.half_width) & (u < self.n_samples + self.half_width)
@@ -277,33 +335,17 @@ class EchoSynthesizer:
         # Quantum 2^-36 of the largest contribution: up to 2^25 terms of that size cannot overflow
         # int64, and the rounding (1.5e-11 relative per term) is far below the synthesis tolerance.
         scale = 2.0 ** (36 - np.ceil(np.log2(peak)))
-        pos = to_jit(Float64, u[keep])
-        gain_re, gain_im = to_jit(Float64, gain.real * scale), to_jit(Float64, gain.imag * scale)
-        if slope is not None:
-            slope_re = to_jit(Float64, slope.real * scale)
-            slope_im = to_jit(Float64, slope.imag * scale)
-            omega_jit = dr.opaque(Float64, omega)  # a variable, not a literal: one kernel for all carriers
-        row = to_jit(Int64, channel) * self.n_fft
-        base = Int64(dr.floor(pos))
-        acc_re = dr.zeros(Int64, size)
-        acc_im = dr.zeros(Int64, size)
-        for offset in self._offsets:  # kernel taps (a fixed, small count), not paths
-            idx = base + int(offset)
-            x = Float64(idx) - pos
-            weight = dr.exp(-0.5 * dr.square(x) * inv_var)
-            value_re, value_im = gain_re, gain_im
-            if slope is not None:  # b (j omega + fs x / sigma^2)
-                k = (self.sample_rate * inv_var) * x
-                value_re = value_re + slope_re * k - slope_im * omega_jit
-                value_im = value_im + slope_im * k + slope_re * omega_jit
-            flat = UInt32(row + (idx + self.n_fft) % self.n_fft)
-            dr.scatter_reduce(dr.ReduceOp.Add, acc_re, Int64(dr.round(weight * value_re)), flat)
-            dr.scatter_reduce(dr.ReduceOp.Add, acc_im, Int64(dr.round(weight * value_im)), flat)
-        dr.eval(acc_re, acc_im)
-        grid = np.empty(size, dtype=complex)
-        grid.real, grid.imag = acc_re.numpy(), acc_im.numpy()
-        grid /= scale
-        return grid.reshape(n_channels, self.n_fft)
+        first_order = None if slope is None else (
+            to_jit(Float64, slope.real * scale), to_jit(Float64, slope.imag * scale),
+            dr.opaque(Float64, omega))  # a variable, not a literal: one kernel for all carriers
+        acc = _spread_kernel()(size, to_jit(Float64, u[keep]), to_jit(Int64, channel) * self.n_fft,
+                         (to_jit(Float64, gain.real * scale), to_jit(Float64, gain.imag * scale)),
+                         first_order, self.n_fft, self.half_width, inv_var,
+                         self.sample_rate * inv_var)
+        grid = np.empty((n_channels, self.n_fft), dtype=complex)
+        np.multiply(acc[0].numpy().reshape(grid.shape), 1.0 / scale, out=grid.real)
+        np.multiply(acc[1].numpy().reshape(grid.shape), 1.0 / scale, out=grid.imag)
+        return grid
 
     def analytic(self, paths: Paths, n_channels: int, waveform=None) -> np.ndarray:
         """Analytic recordings (n_channels, n_samples), complex [Pa], of paths driven by
@@ -330,8 +372,11 @@ class EchoSynthesizer:
                                      for k, w in enumerate(waveforms) for p in by_waveform[w]])
         grid = self.impulse_grid(stacked, len(waveforms) * n_channels)
         spectra = sfft.fft(grid, axis=-1, workers=-1).reshape(len(waveforms), n_channels, self.n_fft)
-        filters = np.stack([self.system_spectrum(w) for w in waveforms]) / self._kernel_ft
-        return np.einsum("wcf,wf->cf", spectra, filters)
+        band = self.band
+        filters = np.stack([self.system_spectrum(w)[band] for w in waveforms]) / self._kernel_ft[band]
+        spectrum = np.zeros((n_channels, self.n_fft), dtype=complex)
+        spectrum[:, band] = np.einsum("wcf,wf->cf", spectra[..., band], filters)
+        return spectrum
 
     def group_spectrum(self, paths: Paths, waveform, n_channels: int) -> np.ndarray:
         """Analytic spectrum (n_channels, n_fft) of the echoes of ``paths`` driven by ``waveform``."""
@@ -340,6 +385,12 @@ class EchoSynthesizer:
     def to_analytic(self, spectrum: np.ndarray) -> np.ndarray:
         """Analytic recording (n_channels, n_samples) from a summed group spectrum."""
         return sfft.ifft(spectrum, axis=-1, workers=-1)[:, : self.n_samples]
+
+    def to_real(self, spectrum: np.ndarray) -> np.ndarray:
+        """Real part of :meth:`to_analytic`, the recorded pressure (n_channels, n_samples) [Pa],
+        by a half-length inverse FFT (the spectrum lives at positive frequencies below fs / 2)."""
+        half = 0.5 * spectrum[:, : self.n_fft // 2 + 1]
+        return sfft.irfft(half, n=self.n_fft, axis=-1, workers=-1)[:, : self.n_samples]
 
     def synthesize(self, paths: Paths, n_channels: int, noise_rms: float = 0.0,
                    seed=None, waveform=None) -> Recording:
@@ -352,10 +403,12 @@ class EchoSynthesizer:
             seed: seed of the noise generator (same seed, same recording).
             waveform: drive waveform (default: the synthesizer's pulse).
         """
-        return self.recording(self.analytic(paths, n_channels, waveform), noise_rms, seed)
+        return self.recording(self.to_real(self.group_spectrum(paths, waveform, n_channels)),
+                              noise_rms, seed)
 
     def recording(self, analytic: np.ndarray, noise_rms: float = 0.0, seed=None) -> Recording:
-        """Real recording from analytic channels, plus seeded white receiver noise [Pa]."""
+        """Recording of channels (n_channels, n_samples) [Pa] (their real part if analytic), plus
+        seeded white receiver noise [Pa]."""
         samples = analytic.real
         if noise_rms > 0:
             if seed is None:

@@ -141,20 +141,39 @@ def test_noise_needs_a_seed_and_is_reproducible(wall_path):
     assert np.array_equal(a, b) and not np.array_equal(a, c)
 
 
+def test_real_recording_and_band_of_the_synthesizer(wall_path):
+    """to_real (half-length inverse FFT) is the real part of to_analytic; every spectrum is zero
+    outside the synthesizer's band, and a waveform wider than the band it was built for is an
+    error naming the fix, not a silently truncated spectrum."""
+    from mitsonar.ofdm import Code
+
+    sonar = mitsonar.Sonar(wall_path, mitsonar.SonarConfig(noise_rms=0.0))
+    synth = sonar.synthesizer
+    paths = sonar.tracer.trace(IDENTITY, BROADSIDE).paths.paths
+    spectrum = synth.group_spectrum(paths, None, 25)
+    analytic = synth.to_analytic(spectrum)
+    assert np.abs(synth.to_real(spectrum) - analytic.real).max() < 1e-12 * np.abs(analytic).max()
+    outside = np.ones(synth.n_fft, bool)
+    outside[synth.band] = False
+    assert not np.any(spectrum[:, outside]) and np.any(spectrum[:, synth.band])
+    with pytest.raises(ValueError, match="waveforms="):
+        synth.system_spectrum(Code(32e3, 48e3))
+
+
 @pytest.mark.parametrize("azimuth_deg, elevation_deg", [(0.0, 0.0), (15.0, 0.0), (20.0, 10.0)])
 def test_narrowband_element_merge_matches_the_element_pair_sum(wall_path, azimuth_deg, elevation_deg):
     """Each hit's 25 transmit elements merged about the carrier (Paths.narrowband, with its
     first-order term) against the synthesis of all 625 element pairs, on the same traced paths of
     a steered beam, no noise: the TCT40 pulse and an OFDM code's tones, and the depth."""
     from mitsonar.frames import direction_from_fov_angles
-    from mitsonar.ofdm import Code
+    from mitsonar.ofdm import Code, OfdmSonar
 
     u = direction_from_fov_angles(np.radians(azimuth_deg), np.radians(elevation_deg))
     sonar = mitsonar.Sonar(wall_path, mitsonar.SonarConfig(noise_rms=0.0))
     paths = sonar.tracer.trace(IDENTITY, u).paths
-    synth = sonar.synthesizer
+    synth = OfdmSonar(sonar).synth  # serves the pulse and the codes' bands
     for waveform, tolerance in ((sonar.config.pulse, 0.015), (Code(36e3, 44e3), 0.08)):
-        groups = sonar.echo_groups(paths, waveform)
+        groups = sonar.echo_groups(paths, waveform, synth)
         assert sum(len(p) for p, _ in groups) <= len(paths) // 6  # merged: 2 x 25 per hit and tone
         exact = synth.analytic(paths, 25, waveform)
         error = np.abs(synth.analytic_sum(groups, 25) - exact).max() / np.abs(exact).max()
