@@ -197,15 +197,24 @@ def _merge_kernel():
         mean_tau = dr.select(total > 0, sum(w * t for w, (_, _, t) in zip(weight, gains))
                              / dr.select(total > 0, total, 1.0), 0.0)
         sums = []
+        # exp(j omega (tau_i - m)) = exp(j omega tau_i) exp(-j omega m): the first factor per
+        # (patch, transmit element), the second per thread, so no sine per element pair:
+        # A = Q sum g_i P_i, B = Q (sum g_i P_i tau_i - m sum g_i P_i), P_i = exp(j omega tau_i),
+        # Q = exp(-j omega m).
+        tau = tx[7]
         for omega in omegas:
-            a_re = a_im = b_re = b_im = Float32(0.0)
-            for g_re, g_im, tau_i in gains:
-                offset = tau_i - mean_tau
-                s, co = dr.sincos(omega * offset)
-                c_re, c_im = g_re * co - g_im * s, g_re * s + g_im * co
-                a_re, a_im = a_re + c_re, a_im + c_im
-                b_re, b_im = b_re + c_re * offset, b_im + c_im * offset
-            sums.append((a_re, a_im, b_re, b_im))
+            sin_tx, cos_tx = dr.sincos(omega * tau)
+            dr.eval(sin_tx, cos_tx)  # gathered from below
+            s0_re = s0_im = s1_re = s1_im = Float32(0.0)
+            for i, (g_re, g_im, tau_i) in enumerate(gains):
+                p_im, p_re = dr.gather(Float32, sin_tx, row + i), dr.gather(Float32, cos_tx, row + i)
+                c_re, c_im = g_re * p_re - g_im * p_im, g_re * p_im + g_im * p_re
+                s0_re, s0_im = s0_re + c_re, s0_im + c_im
+                s1_re, s1_im = s1_re + c_re * tau_i, s1_im + c_im * tau_i
+            e_im, e_re = dr.sincos(-omega * mean_tau)
+            r_re, r_im = s1_re - mean_tau * s0_re, s1_im - mean_tau * s0_im
+            sums.append((s0_re * e_re - s0_im * e_im, s0_re * e_im + s0_im * e_re,
+                         r_re * e_re - r_im * e_im, r_re * e_im + r_im * e_re))
         return mean_tau, sums
 
     return dr.freeze(merge)
