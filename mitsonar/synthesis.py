@@ -73,7 +73,9 @@ def _spread_kernel():
             dr.scatter_reduce(dr.ReduceOp.Add, acc[1], Int64(dr.round(weight * value_im)), flat)
         return acc
 
-    return dr.freeze(spread)
+    # One recording per grid size and kernel shape (a few per synthesizer; sessions that build
+    # several synthesizers, e.g. fidelity levels and OFDM, make dozens): not a re-tracing fault.
+    return dr.freeze(spread, warn_after=256)
 
 
 @dataclass(frozen=True)
