@@ -47,7 +47,7 @@ from mitsonar.beampattern import in_fov
 from mitsonar.io import write_table
 from mitsonar.metrics import evaluate, sample_surface, visible_from
 from mitsonar.plots import _pyplot, save_png
-from mitsonar.scene import material_xml, rectangle_xml, scene_mesh
+from mitsonar.scene import material_xml, scene_mesh, spanned_rectangle_xml
 from mitsonar.surfels import SurfelSettings, map_surfels, plane_colours, tone_map
 
 CREASE = np.array([2.0, 2.0, 0.0])  # where the two walls and the floor meet [m]
@@ -87,7 +87,7 @@ class Shadow:
         half = (3.25 / np.cos(self.slope),
                 (BOARD_TOP - self.height) / 2 + 2.0 * abs(np.sin(self.slope)))
         start = np.array([-2.0, -0.75, self.height - 0.75 * np.tan(self.slope)])
-        return rectangle_xml("board", start + half[1] * up, along, up, half)
+        return spanned_rectangle_xml("board", start + half[1] * up, along, up, half)
 
     def edge_points(self) -> np.ndarray:
         """Two points (2, 3) [m] of the edge on the wall."""
@@ -96,12 +96,14 @@ class Shadow:
 
 def corner_scene(directory: Path, shadow: Shadow) -> Path:
     path = directory / f"corner_{shadow.height:g}_{np.degrees(shadow.slope):g}.xml"
-    parts = [material_xml("wall_x", "drywall", 0.5), material_xml("wall_y", "drywall", 0.8),
-             material_xml("floor", "concrete", 0.15), material_xml("board", "drywall", 0.5),
+    parts = [material_xml("wall_x", 0.5, preset="drywall"),
+             material_xml("wall_y", 0.8, preset="drywall"),
+             material_xml("floor", 0.15, preset="concrete"),
+             material_xml("board", 0.5, preset="drywall"),
              SUN, LAMP, shadow.board_xml(),
-             rectangle_xml("wall_x", CREASE + [0, -3, 1.6], [0, 0, 1], [0, 1, 0], (1.6, 3)),
-             rectangle_xml("wall_y", CREASE + [-3, 0, 1.5], [1, 0, 0], [0, 0, 1], (4, 1.5)),
-             rectangle_xml("floor", CREASE + [-3, -3, 0], [1, 0, 0], [0, 1, 0], (3, 3))]
+             spanned_rectangle_xml("wall_x", CREASE + [0, -3, 1.6], [0, 0, 1], [0, 1, 0], (1.6, 3)),
+             spanned_rectangle_xml("wall_y", CREASE + [-3, 0, 1.5], [1, 0, 0], [0, 0, 1], (4, 1.5)),
+             spanned_rectangle_xml("floor", CREASE + [-3, -3, 0], [1, 0, 0], [0, 1, 0], (3, 3))]
     path.write_text('<scene version="3.0.0">\n' + "\n".join(parts) + "\n</scene>\n")
     return path
 

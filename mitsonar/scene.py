@@ -277,14 +277,18 @@ _TESSELLATORS = {"Disk": _disk, "Cylinder": _cylinder, "Sphere": _sphere}
 
 
 # ---- small scenes written by scripts and tests ----------------------------------------------
-def material_xml(material: str, preset_name: str, reflectance: float | str) -> str:
-    """An ``acoustic`` BSDF ``material`` with the acoustic preset ``preset_name`` around a
-    diffuse BSDF of ``reflectance`` (a grey value in [0, 1], or "r, g, b")."""
-    return (f'<bsdf type="acoustic" id="{material}"><string name="preset" value="{preset_name}"/>'
-            f'<bsdf type="diffuse"><rgb name="reflectance" value="{reflectance}"/></bsdf></bsdf>')
+def material_xml(material: str, reflectance: float | str | None = None, **acoustic) -> str:
+    """An ``acoustic`` BSDF ``material`` around a diffuse BSDF of ``reflectance`` (a grey value
+    in [0, 1], or "r, g, b"; None: Mitsuba's default); the ``acoustic`` parameters (e.g.
+    ``preset="drywall"``, ``impedance=...``) become <string> (text) or <float> elements."""
+    params = "".join(f'<{"string" if isinstance(v, str) else "float"} name="{k}" value="{v}"/>'
+                     for k, v in acoustic.items())
+    diffuse = '<bsdf type="diffuse"/>' if reflectance is None else \
+        f'<bsdf type="diffuse"><rgb name="reflectance" value="{reflectance}"/></bsdf>'
+    return f'<bsdf type="acoustic" id="{material}">{params}{diffuse}</bsdf>'
 
 
-def rectangle_xml(material: str, centre, e1, e2, half) -> str:
+def spanned_rectangle_xml(material: str, centre, e1, e2, half) -> str:
     """A rectangle centred at ``centre`` (3,) [m] spanning +-half[0] [m] along e1 and +-half[1]
     [m] along e2 (directions, normalised here); its lit side faces e1 x e2."""
     e1, e2 = (np.asarray(e, float) / np.linalg.norm(e) for e in (e1, e2))

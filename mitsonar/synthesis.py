@@ -250,8 +250,8 @@ class EchoSynthesizer:
         self.band = None
         nonzero = np.flatnonzero(np.any([self.system_spectrum(w) != 0
                                          for w in (pulse,) + tuple(waveforms)], axis=0))
-        #: Bins [Hz: ``frequencies``] spanning the bands of every waveform served: spectra are
-        #: zero outside, so filtering and beamforming are computed here only.
+        #: FFT bins (a slice of :attr:`frequencies`) spanning the bands of every waveform served:
+        #: spectra are zero outside, so filtering and beamforming are computed here only.
         self.band = slice(int(nonzero[0]), int(nonzero[-1]) + 1)
         nu_max = self._freq[nonzero[-1]] / sample_rate
         # Gaussian kernel (sigma in samples): aliasing from the images at fs - f stays below the
@@ -340,10 +340,10 @@ class EchoSynthesizer:
         first_order = None if slope is None else (
             to_jit(Float64, slope.real * scale), to_jit(Float64, slope.imag * scale),
             dr.opaque(Float64, omega))  # a variable, not a literal: one kernel for all carriers
+        gains = (to_jit(Float64, gain.real * scale), to_jit(Float64, gain.imag * scale))
         acc = _spread_kernel()(size, to_jit(Float64, u[keep]), to_jit(Int64, channel) * self.n_fft,
-                         (to_jit(Float64, gain.real * scale), to_jit(Float64, gain.imag * scale)),
-                         first_order, self.n_fft, self.half_width, inv_var,
-                         self.sample_rate * inv_var)
+                               gains, first_order, self.n_fft, self.half_width, inv_var,
+                               self.sample_rate * inv_var)
         grid = np.empty((n_channels, self.n_fft), dtype=complex)
         np.multiply(acc[0].numpy().reshape(grid.shape), 1.0 / scale, out=grid.real)
         np.multiply(acc[1].numpy().reshape(grid.shape), 1.0 / scale, out=grid.imag)
@@ -408,10 +408,10 @@ class EchoSynthesizer:
         return self.recording(self.to_real(self.group_spectrum(paths, waveform, n_channels)),
                               noise_rms, seed)
 
-    def recording(self, analytic: np.ndarray, noise_rms: float = 0.0, seed=None) -> Recording:
+    def recording(self, channels: np.ndarray, noise_rms: float = 0.0, seed=None) -> Recording:
         """Recording of channels (n_channels, n_samples) [Pa] (their real part if analytic), plus
         seeded white receiver noise [Pa]."""
-        samples = analytic.real
+        samples = channels.real
         if noise_rms > 0:
             if seed is None:
                 raise ValueError("noise_rms > 0 needs an explicit seed")

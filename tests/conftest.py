@@ -10,16 +10,6 @@ import mitsonar
 HEADER = '<scene version="3.0.0">\n'
 
 
-def material_xml(mat_id: str, **props) -> str:
-    """An ``acoustic`` BSDF; string values become <string>, numbers <float>."""
-    lines = [f'<bsdf type="acoustic" id="{mat_id}">']
-    for k, v in props.items():
-        kind = "string" if isinstance(v, str) else "float"
-        lines.append(f'  <{kind} name="{k}" value="{v}"/>')
-    lines.append('  <bsdf type="diffuse"/>\n</bsdf>')
-    return "\n".join(lines)
-
-
 def rectangle_xml(material: str, centre, normal_euler_deg=(0, 0, 0), size=(20.0, 20.0),
                   shape_id: str = "") -> str:
     """A rectangle of ``size`` [m] centred at ``centre``, facing -z rotated by Euler angles (deg)."""

@@ -7,7 +7,8 @@ import mitsonar
 from mitsonar.camera import CameraModel, CameraRenderer
 from mitsonar.frames import direction_from_angles
 from mitsonar.trajectory import OdometryDrift, Trajectory
-from conftest import IDENTITY, material_xml, rectangle_xml
+from conftest import IDENTITY, rectangle_xml
+from mitsonar.scene import material_xml
 
 SMALL = CameraModel().at_resolution(160)
 

@@ -8,7 +8,8 @@ import pytest
 import mitsonar
 from mitsonar import _native
 from mitsonar.cli import main
-from conftest import material_xml, rectangle_xml
+from conftest import rectangle_xml
+from mitsonar.scene import material_xml
 
 
 @pytest.fixture

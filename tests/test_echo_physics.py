@@ -13,7 +13,8 @@ import pytest
 import mitsonar
 from mitsonar.beampattern import array_factor, main_lobe_width
 from mitsonar.frames import direction_from_fov_angles
-from conftest import BROADSIDE, IDENTITY, material_xml, rectangle_xml, sphere_xml, write_scene
+from conftest import BROADSIDE, IDENTITY, rectangle_xml, sphere_xml, write_scene
+from mitsonar.scene import material_xml
 from mitsonar.reference import image_paths, plane_images
 
 QUIET = mitsonar.SonarConfig(noise_rms=0.0)

@@ -11,7 +11,7 @@ from mitsonar.camera import CameraModel, CameraRenderer
 from mitsonar.frames import direction_from_angles, fov_angles
 from mitsonar.lines import (_angle_neighbours, clip_segments, close_junctions, detect_segments,
                             fov_crop_box, merge_collinear, scan_directions, scan_pixels, triangle_surfels)
-from mitsonar.scene import material_xml, rectangle_xml
+from mitsonar.scene import material_xml, spanned_rectangle_xml
 from conftest import IDENTITY
 
 CAMERA = CameraModel()
@@ -270,14 +270,15 @@ def test_rendered_room_corner_gives_its_three_creases(scene_file):
     face."""
     corner = np.array([0.0, 0.5, 3.0])  # where the creases meet, 0.575 m below the camera
     s = np.sqrt(0.5)
-    material = material_xml("m", "drywall", 0.7)
+    material = material_xml("m", 0.7, preset="drywall")
     sun = ('<emitter type="directional"><vector name="direction" x="0.537" y="0.447" z="0.716"/>'
            '<rgb name="irradiance" value="1"/></emitter>')
     scene = mitsonar.load_scene(scene_file(
         "corner", material, sun,
-        rectangle_xml("m", corner + [-3 * s, 0, -3 * s], [0, 1, 0], [1, 0, 1], (6, 4.3)),  # left wall
-        rectangle_xml("m", corner + [3 * s, 0, -3 * s], [-1, 0, 1], [0, 1, 0], (4.3, 6)),  # right wall
-        rectangle_xml("m", corner, [1, 0, 0], [0, 0, 1], (10, 10))))  # floor
+        # left wall, right wall, floor
+        spanned_rectangle_xml("m", corner + [-3 * s, 0, -3 * s], [0, 1, 0], [1, 0, 1], (6, 4.3)),
+        spanned_rectangle_xml("m", corner + [3 * s, 0, -3 * s], [-1, 0, 1], [0, 1, 0], (4.3, 6)),
+        spanned_rectangle_xml("m", corner, [1, 0, 0], [0, 0, 1], (10, 10))))
     camera = CameraModel(spp=32).at_resolution(400)
     images = CameraRenderer(scene, camera).render(IDENTITY, seed=0)
     gray = (images.gray / images.gray.max()) ** (1 / 2.2)  # display-like tone map

@@ -7,7 +7,8 @@ import pytest
 
 import mitsonar
 from mitsonar.scene import DefaultMaterialWarning, SceneError
-from conftest import material_xml, rectangle_xml
+from conftest import rectangle_xml
+from mitsonar.scene import material_xml
 
 Z_AIR = mitsonar.Medium().impedance
 

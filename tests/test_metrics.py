@@ -13,7 +13,8 @@ from mitsonar.io import write_ply
 from mitsonar.metrics import (Scores, error_jumps, evaluate, point_to_mesh, sample_surface,
                               visible_from)
 from mitsonar.scene import SceneError, scene_mesh
-from conftest import material_xml, rectangle_xml
+from conftest import rectangle_xml
+from mitsonar.scene import material_xml
 
 SCENES = Path(__file__).resolve().parent.parent / "scenes"
 TRANSMITTING = {"dielectric", "thindielectric", "roughdielectric"}

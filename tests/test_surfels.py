@@ -9,7 +9,7 @@ from mitsonar.camera import CameraModel
 from mitsonar.surfels import (CheckPings, PlaneGroups, PoseScan, SurfelSettings, fit_plane,
                               group_surfels, grow_planes, map_surfels, region_labels,
                               shadow_segments, verify)
-from mitsonar.scene import material_xml, rectangle_xml
+from mitsonar.scene import material_xml, spanned_rectangle_xml
 from conftest import write_scene
 
 
@@ -174,12 +174,13 @@ def corner_scene(scene_file, tilt_deg=0.0, *extra):
     n_x = np.cross(up, [0, 1, 0])
     to_sun = -np.array([0.45, 0.45, -0.77]) / np.linalg.norm([0.45, 0.45, -0.77])
     path = scene_file(  # wall_x's albedo keeps its brightness (0.225 x irradiance) at any tilt
-        "corner", material_xml("wall_x", "drywall", round(0.225 / (n_x @ to_sun), 3)),
-        material_xml("wall_y", "drywall", 0.8), material_xml("floor", "concrete", 0.15), SUN,
+        "corner", material_xml("wall_x", round(0.225 / (n_x @ to_sun), 3), preset="drywall"),
+        material_xml("wall_y", 0.8, preset="drywall"),
+        material_xml("floor", 0.15, preset="concrete"), SUN,
         *extra,
-        rectangle_xml("wall_x", CREASE + [0, -3, 0] + 1.6 * up, up, [0, 1, 0], (1.6, 3)),
-        rectangle_xml("wall_y", CREASE + [-3, 0, 1.5], [1, 0, 0], [0, 0, 1], (4, 1.5)),
-        rectangle_xml("floor", CREASE + [-3, -3, 0], [1, 0, 0], [0, 1, 0], (3, 3)))
+        spanned_rectangle_xml("wall_x", CREASE + [0, -3, 0] + 1.6 * up, up, [0, 1, 0], (1.6, 3)),
+        spanned_rectangle_xml("wall_y", CREASE + [-3, 0, 1.5], [1, 0, 0], [0, 0, 1], (4, 1.5)),
+        spanned_rectangle_xml("floor", CREASE + [-3, -3, 0], [1, 0, 0], [0, 1, 0], (3, 3)))
     planes = {"wall_x": (n_x, float(n_x @ CREASE)), "wall_y": (np.array([0, -1.0, 0]), -2.0),
               "floor": (np.array([0, 0, 1.0]), 0.0)}
     return path, planes
@@ -287,8 +288,8 @@ def test_shadow_across_a_wall_is_removed(tmp_path):
     lamp = ('<emitter type="directional"><vector name="direction" x="1" y="0" z="0"/>'
             '<rgb name="irradiance" value="1.5"/></emitter>')
     top = 3.5
-    board = rectangle_xml("wall_y", [-2.0, -0.75, (SHADOW_HEIGHT + top) / 2], [0, 1, 0], [0, 0, 1],
-                      (3.25, (top - SHADOW_HEIGHT) / 2))
+    board = spanned_rectangle_xml("wall_y", [-2.0, -0.75, (SHADOW_HEIGHT + top) / 2], [0, 1, 0],
+                                  [0, 0, 1], (3.25, (top - SHADOW_HEIGHT) / 2))
 
     def scene_file(name, *parts):
         return write_scene(tmp_path / f"{name}.xml", *parts)

@@ -6,7 +6,8 @@ import pytest
 import mitsonar
 from mitsonar.processing import bistatic_depth
 from mitsonar.synthesis import Paths
-from conftest import BROADSIDE, IDENTITY, material_xml, rectangle_xml
+from conftest import BROADSIDE, IDENTITY, rectangle_xml
+from mitsonar.scene import material_xml
 from mitsonar.reference import direct_summation
 
 

@@ -10,7 +10,7 @@ from mitsonar.frames import Pose, direction_from_fov_angles
 from mitsonar.voxelmap import (VoxelMap, VoxelMapSettings, bilinear_sample, colourise,
                                linear_to_srgb, save_voxel_figure, save_voxel_ply, srgb_to_linear,
                                statistical_outliers, voxelise)
-from conftest import material_xml
+from mitsonar.scene import material_xml
 
 # 160 x 120, f = 133.3 px; the raw render, exact at one sample per pixel (a denoiser would
 # smooth the checker)
