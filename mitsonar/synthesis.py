@@ -5,10 +5,12 @@ channel. The analytic recording of a channel is sum_p a_p w(t - tau_p), where w 
 system waveform: the drive pulse through the transmitter and receiver responses. Its real part is
 the recorded pressure.
 
-Fast synthesis (band-limited, exact for these signals): every path is spread onto the sample grid
-with a short Gaussian kernel (a type-1 non-uniform FFT), one FFT per channel gives
-sum_p a_p exp(-j 2 pi f tau_p) times the kernel's transform, which is divided out inside the
-signal band and multiplied by the system spectrum W(f). Cost: paths x kernel taps + one FFT per
+Fast synthesis (band-limited, exact for these signals): every path, shifted down in frequency by
+the band's centre f_d (a phasor exp(-j 2 pi f_d tau_p)), is spread onto the sample grid with a
+short Gaussian kernel (a type-1 non-uniform FFT); one FFT per channel gives
+sum_p a_p exp(-j 2 pi f tau_p) times the kernel's transform at f - f_d, which is divided out
+inside the signal band and multiplied by the system spectrum W(f). The shift halves the highest
+frequency the kernel must resolve, and so its width. Cost: paths x kernel taps + one FFT per
 channel, instead of paths x samples for the direct summation (kept in the tests as the oracle).
 Fractional delays are exact up to the stated tolerance, far below one sample.
 """
@@ -39,16 +41,25 @@ def _spread_kernel():
     traced once per kernel shape, then replayed without Python tracing whatever the path count.
 
     Arguments: the flat grid's size, positions (M,) [samples], row offsets (M,) into the flat
-    grid, (re, im) gains, None or (re, im, carrier [rad/s]) of the first-order terms, n_fft,
-    half_width [taps], 1/sigma^2, fs/sigma^2. Returns the (re, im) Int64 grids. (Each grid size
-    is a separate recording: the grids are made inside, as scatter targets passed in would be
-    replayed at the recorded size.)
+    grid, (re, im) gains, None or (re, im, carrier - f_d [rad/s]) of the first-order terms, the
+    shift f_d [cycles per sample], n_fft, half_width [taps], 1/sigma^2, fs/sigma^2. Returns the
+    (re, im) Int64 grids. (Each grid size is a separate recording: the grids are made inside, as
+    scatter targets passed in would be replayed at the recorded size.)
     """
     import drjit as dr
     from drjit.llvm import Float64, Int64, UInt32
 
-    def spread(size, pos, row, gain, first_order, n_fft, half_width, inv_var, rate_inv_var):
+    def spread(size, pos, row, gain, first_order, shift, n_fft, half_width, inv_var, rate_inv_var):
         acc = (dr.zeros(Int64, size), dr.zeros(Int64, size))
+        cycles = shift * pos
+        sin, cos = dr.sincos(-2 * np.pi * (cycles - dr.floor(cycles)))  # exp(-j 2 pi f_d tau)
+
+        def shifted(re, im):
+            return re * cos - im * sin, re * sin + im * cos
+
+        gain = shifted(*gain)
+        if first_order is not None:
+            first_order = shifted(*first_order[:2]) + (first_order[2],)
         base = Int64(dr.floor(pos))
         frac = pos - Float64(base)  # in [0, 1)
         # Fast Gaussian gridding: g(k - frac) = exp(-k^2 / 2 sigma^2) exp(k frac / sigma^2)
@@ -253,15 +264,20 @@ class EchoSynthesizer:
         #: FFT bins (a slice of :attr:`frequencies`) spanning the bands of every waveform served:
         #: spectra are zero outside, so filtering and beamforming are computed here only.
         self.band = slice(int(nonzero[0]), int(nonzero[-1]) + 1)
-        nu_max = self._freq[nonzero[-1]] / sample_rate
+        #: FFT bin of the band's centre f_d, by which paths are shifted down before gridding.
+        self.shift_bin = (self.band.start + self.band.stop - 1) // 2
+        nu = (np.arange(self.band.start, self.band.stop) - self.shift_bin) / self.n_fft
+        nu_max = np.abs(nu).max()
         # Gaussian kernel (sigma in samples): aliasing from the images at fs - f stays below the
-        # tolerance, and truncation stays below it after the deconvolution gain at nu_max.
+        # tolerance, and truncation stays below it after the deconvolution gain at nu_max (f
+        # relative to f_d).
         log_tol = np.log(1.0 / tolerance)
         self.sigma = float(np.sqrt(log_tol / (2 * np.pi**2 * (1 - 2 * nu_max))))
         deconv_gain = np.exp(2 * np.pi**2 * self.sigma**2 * nu_max**2)
         self.half_width = int(np.ceil(self.sigma * np.sqrt(2 * np.log(deconv_gain / tolerance))))
-        nu = self._freq / sample_rate
-        self._kernel_ft = self.sigma * np.sqrt(2 * np.pi) * np.exp(-2 * np.pi**2 * self.sigma**2 * nu**2)
+        kernel_ft = self.sigma * np.sqrt(2 * np.pi) * np.exp(-2 * np.pi**2 * self.sigma**2 * nu**2)
+        self._deconvolution = 1.0 / kernel_ft  # over the band
+        self._grid_bins = (np.arange(self.band.start, self.band.stop) - self.shift_bin) % self.n_fft
 
     @property
     def frequencies(self) -> np.ndarray:
@@ -305,11 +321,13 @@ class EchoSynthesizer:
         return list(zip(paths.narrowband_many([self.band_moments(t)[0] for t in tones]), tones))
 
     def impulse_grid(self, paths: Paths, n_channels: int) -> np.ndarray:
-        """Spread paths onto the (n_channels, n_fft) sample grid with the Gaussian kernel g.
+        """Spread paths, shifted down by the band centre f_d (:attr:`shift_bin`), onto the
+        (n_channels, n_fft) sample grid with the Gaussian kernel g: bin m of the grid's FFT holds
+        bin m + shift_bin of the spectrum, times the kernel's transform.
 
         A first-order term b about f_c goes onto the same grid with the kernel's derivative,
-        b (j 2 pi f_c g(x) - fs g'(x)), whose transform is -j 2 pi (f - f_c) times g's: one grid
-        and one FFT carry both terms of a narrow-band merged path.
+        b (j 2 pi (f_c - f_d) g(x) - fs g'(x)), whose transform is -j 2 pi (f - f_c) times g's:
+        one grid and one FFT carry both terms of a narrow-band merged path.
 
         Runs as one Dr.Jit LLVM kernel (a scatter-add per kernel tap), compiled once and reused.
         Contributions are accumulated as 64-bit fixed-point integers, whose sum does not depend
@@ -326,11 +344,11 @@ class EchoSynthesizer:
         size = n_channels * self.n_fft
         gain = np.asarray(paths.gain)[keep]
         inv_var = 1.0 / self.sigma**2
-        omega = 2 * np.pi * paths.carrier  # [rad/s]
-        # |j omega g(x) - fs g'(x)| <= omega + fs |x| / sigma^2 over the taps, |x| <= half_width + 1.
+        omega = 2 * np.pi * (paths.carrier - self.shift_bin * self.sample_rate / self.n_fft)  # [rad/s]
+        # |j omega g(x) - fs g'(x)| <= |omega| + fs |x| / sigma^2 over the taps, |x| <= half_width + 1.
         slope = None if paths.first_order is None else np.asarray(paths.first_order)[keep]
         bound = np.abs(gain) if slope is None else \
-            np.abs(gain) + np.abs(slope) * (omega + self.sample_rate * (self.half_width + 1) * inv_var)
+            np.abs(gain) + np.abs(slope) * (abs(omega) + self.sample_rate * (self.half_width + 1) * inv_var)
         peak = float(np.max(bound, initial=0.0))
         if len(channel) == 0 or peak == 0.0:
             return np.zeros((n_channels, self.n_fft), dtype=complex)
@@ -342,7 +360,8 @@ class EchoSynthesizer:
             dr.opaque(Float64, omega))  # a variable, not a literal: one kernel for all carriers
         gains = (to_jit(Float64, gain.real * scale), to_jit(Float64, gain.imag * scale))
         acc = _spread_kernel()(size, to_jit(Float64, u[keep]), to_jit(Int64, channel) * self.n_fft,
-                               gains, first_order, self.n_fft, self.half_width, inv_var,
+                               gains, first_order, dr.opaque(Float64, self.shift_bin / self.n_fft),
+                               self.n_fft, self.half_width, inv_var,
                                self.sample_rate * inv_var)
         grid = np.empty((n_channels, self.n_fft), dtype=complex)
         np.multiply(acc[0].numpy().reshape(grid.shape), 1.0 / scale, out=grid.real)
@@ -375,9 +394,9 @@ class EchoSynthesizer:
         grid = self.impulse_grid(stacked, len(waveforms) * n_channels)
         spectra = sfft.fft(grid, axis=-1, workers=-1).reshape(len(waveforms), n_channels, self.n_fft)
         band = self.band
-        filters = np.stack([self.system_spectrum(w)[band] for w in waveforms]) / self._kernel_ft[band]
+        filters = np.stack([self.system_spectrum(w)[band] for w in waveforms]) * self._deconvolution
         spectrum = np.zeros((n_channels, self.n_fft), dtype=complex)
-        spectrum[:, band] = np.einsum("wcf,wf->cf", spectra[..., band], filters)
+        spectrum[:, band] = np.einsum("wcf,wf->cf", spectra[..., self._grid_bins], filters)
         return spectrum
 
     def group_spectrum(self, paths: Paths, waveform, n_channels: int) -> np.ndarray:
