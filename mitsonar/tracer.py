@@ -517,7 +517,7 @@ class AcousticTracer:
         if not self.settings.shadow_rays or len(points) == 0:
             return np.ones((len(points), len(rx)))
         start = _rotate(rotation, points + _EPS * normals) + translation  # (H, 3) world
-        ends = np.einsum("hik,jk->hji", rotation, rx) + translation[:, None, :]  # (H, N_rx, 3)
+        ends = np.matmul(rx, rotation.transpose(0, 2, 1)) + translation[:, None, :]  # (H, N_rx, 3)
         vis = self._visible(np.repeat(start, len(rx), axis=0), ends.reshape(-1, 3))
         return vis.reshape(len(points), len(rx)).astype(float)
 
