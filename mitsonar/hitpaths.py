@@ -83,8 +83,10 @@ class HitPaths:
 
     @classmethod
     def concatenate(cls, parts) -> "HitPaths":
-        """The patches of all ``parts`` (same element counts)."""
+        """The patches of all ``parts`` (same element counts); a single part is returned as it is."""
         parts = list(parts)
+        if len(parts) == 1:
+            return parts[0]
         return cls(*(np.concatenate([getattr(p, name) for p in parts])
                      for name in cls.__dataclass_fields__))
 

@@ -43,6 +43,7 @@ from scipy.ndimage import binary_dilation
 
 from .array import APERTURE, ArrayGeometry
 from .frames import Pose, orthonormal_basis
+from .element_factors import element_factors
 from .hitpaths import HitPaths
 from .jit import rays
 from .medium import Medium
@@ -291,82 +292,53 @@ class AcousticTracer:
         zc = self._z2[mats] * np.maximum(cos_incidence, 0.0)  # mats broadcasts against cos
         return (zc - self._z_air) / (zc + self._z_air)
 
-    def _tx_factors(self, points, tx_virtual, departure, steering):
-        """Incident field per hit and transmit element, each (H, N_tx): gain [Pa], delay [s],
-        and the unit propagation vectors (H, N_tx, 3) from the (virtual) element to the hit.
-
-        Args:
-            points: (H, 3) patch centres (sensor frame).
-            tx_virtual: (H, N_tx, 3) element positions, mirrored for unfolded bounces.
-            departure: (H, 3) point the element directivity is evaluated towards.
-            steering: (H, N_tx) firing delays t_i^D [s] of each hit's beam.
-        """
-        g = self.geometry
-        tx = g.tx_positions
-        w = points[:, None, :] - tx_virtual
-        r = _length(w)
-        dep = departure[:, None, :] - tx[None]
-        cos_dep = dep[..., 2] / _length(dep)
-        amp = self.transducer.source_amplitude * self.transducer.directivity(cos_dep, self.k) \
-            * self._attenuation(r) / r
-        gain = amp * np.exp(1j * g.tx_phase_offsets)[None, :]
-        return gain, steering + r / self.c, w / r[..., None]
-
-    def _rx_factors(self, points, visible):
-        """Re-radiation per hit and receive element, each (H, N_rx): gain, delay [s], and unit
-        vectors (H, N_rx, 3) from the element to the hit."""
-        g = self.geometry
-        v = points[:, None, :] - g.rx_positions[None]
-        r = _length(v)
-        amp = self.transducer.directivity(v[..., 2] / r, self.k) * self._attenuation(r) / r
-        gain = amp * visible * np.exp(1j * g.rx_phase_offsets)[None, :]
-        return gain, r / self.c, v / r[..., None]
-
-    def _scatter(self, points, normals, mats, d_in, dd1, dd2, t_unfold, tx_virtual, departure,
-                 steering, extra_gain, visible, roughness) -> HitPaths:
+    def _scatter(self, points, normals, mats, d_in, dd1, dd2, t_unfold, mirror, steering,
+                 extra_gain, visible, roughness) -> HitPaths:
         """Paths re-radiated by patches (see module docstring). All inputs are per hit
-        (``roughness``: (H,) unit phasors of the diffuse part, see :meth:`_roughness`).
+        (``roughness``: (H,) unit phasors of the diffuse part, see :meth:`_roughness`;
+        ``mirror``: None, or the plane (points, normals) (H, 3) the transmit array is mirrored
+        in for unfolded bounces).
 
         Incidence and emergence angles, reflection coefficients and the phase gradient of the
-        patch integral are evaluated per transmit and receive element, which keeps the patch
-        sum exact at short range where the elements see a patch from different directions.
+        patch integral are evaluated per transmit and receive element
+        (:func:`~mitsonar.element_factors.element_factors`), which keeps the patch sum exact at
+        short range where the elements see a patch from different directions.
         """
         g = self.geometry
-        tx_gain, tx_delay, w = self._tx_factors(points, tx_virtual, departure, steering)
-        rx_gain, rx_delay, v = self._rx_factors(points, visible)
-        cos_in = -_rows_dot(w, normals[:, None, :])  # (H, N_tx)
-        cos_out = -_rows_dot(v, normals[:, None, :])  # (H, N_rx)
-        tx_ok = cos_in > 0
-        rx_ok = cos_out > 0
-        if self.settings.model == "paper":
+        physical = self.settings.model == "physical"
+        edges = np.zeros((len(points), 2, 3))
+        if physical:  # patch edges on the tangent plane from the ray differentials (unfolded)
+            d_dot_n = _rows_dot(d_in, normals)[:, None]
+            for k, dd in enumerate((dd1, dd2)):
+                edges[:, k] = t_unfold[:, None] * (dd - d_in * _rows_dot(dd, normals)[:, None] / d_dot_n)
+        area = _length(np.cross(edges[:, 0], edges[:, 1]))
+        # Patch integral of exp(-j k (r_i + r_j)) over the parallelogram: A sinc(.) sinc(.), the
+        # phase gradient being w_i + v_j; the sinc arguments split into TX and RX parts.
+        edges *= 0.5 * self.k / np.pi  # np.sinc(x) = sin(pi x) / (pi x)
+        common = dict(ka=self.k * self.transducer.radius, log_attenuation=self._log_attenuation,
+                      speed_of_sound=self.c)
+        tx = element_factors(points, normals, edges, g.tx_positions,
+                             self.transducer.source_amplitude * np.exp(1j * g.tx_phase_offsets),
+                             departure=None if mirror is None else mirror[0], firing=steering,
+                             mirror=mirror, impedance=self._z2[mats] if physical else None,
+                             z_air=self._z_air, **common)
+        rx = element_factors(points, normals, edges, g.rx_positions, np.exp(1j * g.rx_phase_offsets),
+                             visible=visible, **common)
+        if not physical:
             to_rx = g.rx_origin[None] - points
             r_out = _length(to_rx)
             alpha = APERTURE**2 * np.clip(_rows_dot(to_rx, normals) / r_out, 0, None) \
                 / (2 * np.pi * r_out**2)
             energy_r = self._reflection(mats, np.ones(len(mats))) ** 2  # equation (4)
             mid = alpha * self.settings.paper_beta * energy_r * extra_gain
-            return HitPaths.point_reflectors(tx_gain * tx_ok, tx_delay, rx_gain * rx_ok, rx_delay, mid)
-        r = self._reflection(mats[:, None], cos_in)  # (H, N_tx)
+            return HitPaths.point_reflectors(tx.specular, tx.delay, rx.specular, rx.delay, mid)
         s = self._scattering[mats]
-        # Patch edges on the tangent plane from the ray differentials (unfolded distance).
-        d_dot_n = _rows_dot(d_in, normals)[:, None]
-        e1 = t_unfold[:, None] * (dd1 - d_in * _rows_dot(dd1, normals)[:, None] / d_dot_n)
-        e2 = t_unfold[:, None] * (dd2 - d_in * _rows_dot(dd2, normals)[:, None] / d_dot_n)
-        area = _length(np.cross(e1, e2))
-        # Patch integral of exp(-j k (r_i + r_j)) over the parallelogram: A sinc(.) sinc(.),
-        # the phase gradient being w_i + v_j; sinc arguments split into TX and RX parts.
-        half_k = 0.5 * self.k / np.pi  # np.sinc(x) = sin(pi x) / (pi x)
-        edges = half_k * np.stack([e1, e2], axis=1)  # (H, 2, 3)
-        tx_sinc = np.stack([_rows_dot(w, edges[:, None, 0]), _rows_dot(w, edges[:, None, 1])], axis=-1)
-        rx_sinc = np.stack([_rows_dot(v, edges[:, None, 0]), _rows_dot(v, edges[:, None, 1])], axis=-1)
         specular = 1j * self.k / (4 * np.pi) * area * np.sqrt(1 - s) * extra_gain
         # Lambert: |r| sqrt(s A cos_in cos_out / pi), with a random phase per patch (surface
         # roughness; constant over the narrow band of the pulse), so it shares the delays.
         diffuse = np.sqrt(s * area / np.pi) * extra_gain * roughness
-        return HitPaths(tx_delay, rx_delay, tx_gain * r * tx_ok, rx_gain * rx_ok, specular,
-                        cos_in, cos_out, tx_sinc, rx_sinc,
-                        tx_gain * np.abs(r) * np.sqrt(np.clip(cos_in, 0, None)),
-                        rx_gain * np.sqrt(np.clip(cos_out, 0, None)), diffuse)
+        return HitPaths(tx.delay, rx.delay, tx.specular, rx.specular, specular, tx.cos, rx.cos,
+                        tx.sinc, rx.sinc, tx.diffuse, rx.diffuse, diffuse)
 
     # ---- public ----------------------------------------------------------------------------
     def _cast(self, rotation, translation, u, e1, e2, beam, a, b):
@@ -476,13 +448,12 @@ class AcousticTracer:
         mats_h = mats[hit]
         taper = self._taper(a[hit], b[hit])
         visible = self._visibility(rot_h, trans_h, x, n)
-        tx_virtual = np.broadcast_to(g.tx_positions[None], (len(x),) + g.tx_positions.shape)
         inv = (1.0 / norm_v[hit])[:, None]
         dd1 = (e1[hb] - d_h * _rows_dot(d_h, e1[hb])[:, None]) * inv * wa[hit][:, None]
         dd2 = (e2[hb] - d_h * _rows_dot(d_h, e2[hb])[:, None]) * inv * wb[hit][:, None]
         steering = g.steering_delays(u, self.c)[hb]  # (H, N_tx)
         rngs = [np.random.default_rng(seed) for seed in seeds]
-        parts = [(hb, self._scatter(x, n, mats_h, d_h, dd1, dd2, t[hit], tx_virtual, x, steering,
+        parts = [(hb, self._scatter(x, n, mats_h, d_h, dd1, dd2, t[hit], None, steering,
                                     taper.astype(complex), visible, self._roughness(mats_h, hb, rngs)))]
         if s.max_bounces == 2 and s.model == "physical":
             parts += self._second_bounce(rotation, translation, hb, x, n, mats_h, d_h, dd1, dd2,
@@ -540,17 +511,13 @@ class AcousticTracer:
         n2 = np.where(_rows_dot(d2h, n2)[:, None] > 0, -n2, n2)
         m1 = mats1[hit]
         r1 = self._reflection(m1, -_rows_dot(d1[hit], n1[hit])) * np.sqrt(1 - self._scattering[m1])
-        tx = self.geometry.tx_positions
-        plane_pt, plane_n = x1[hit], n1[hit]
-        tx_image = tx[None] - 2 * _rows_dot(tx[None] - plane_pt[:, None], plane_n[:, None])[..., None] \
-            * plane_n[:, None, :]
         visible = self._visibility(rot, trans, x2, n2)
         n1h = n1[hit]
         refl = lambda v: v - 2 * _rows_dot(v, n1h)[:, None] * n1h  # noqa: E731
         mats2 = mats[hit]
         return [(beam[hit], self._scatter(
-            x2, n2, mats2, d2h, refl(dd1[hit]), refl(dd2[hit]), t1[hit] + t[hit] + _EPS, tx_image,
-            plane_pt, steering[hit], (taper[hit] * r1).astype(complex), visible,
+            x2, n2, mats2, d2h, refl(dd1[hit]), refl(dd2[hit]), t1[hit] + t[hit] + _EPS,
+            (x1[hit], n1h), steering[hit], (taper[hit] * r1).astype(complex), visible,
             self._roughness(mats2, beam[hit], rngs)))]
 
     def direct_paths(self, direction) -> Paths:
