@@ -25,11 +25,11 @@ def to_jit(array_type, values):
     dtype = np.dtype({v.Float32: np.float32, v.Float64: np.float64, v.Int32: np.int32,
                       v.UInt32: np.uint32, v.Int64: np.int64, v.UInt64: np.uint64,
                       v.Bool: np.bool_}[dr.type_v(array_type)])
-    flat = np.asarray(values).ravel()
-    raw = np.empty(flat.size * dtype.itemsize + ALIGNMENT, np.uint8)
+    values = np.asarray(values)
+    raw = np.empty(values.size * dtype.itemsize + ALIGNMENT, np.uint8)
     start = -raw.ctypes.data % ALIGNMENT
-    aligned = raw[start: start + flat.size * dtype.itemsize].view(dtype)
-    aligned[:] = flat
+    aligned = raw[start: start + values.size * dtype.itemsize].view(dtype)
+    aligned.reshape(values.shape)[...] = values  # one pass: gathers strided views, converts
     return array_type(aligned)
 
 
