@@ -79,14 +79,21 @@ def write_outputs(out: Path, rows: list[dict]) -> None:
            for r in rows]
     write_table(out / "speed_accuracy.csv", rows, md)
     plt = _pyplot()
+    from matplotlib.ticker import NullFormatter, ScalarFormatter
+
     fig, ax = plt.subplots(figsize=(7, 4.5))
-    for scene_name, marker in zip(dict.fromkeys(r["scene"] for r in rows), "osd^v"):
+    scenes = list(dict.fromkeys(r["scene"] for r in rows))
+    for k, (scene_name, marker) in enumerate(zip(scenes, "osd^v")):
+        ax.plot([], [], marker, color="0.4", label=scene_name)
         for r in (r for r in rows if r["scene"] == scene_name):
             y = max(r["median_depth_diff_mm"], 1e-3) if np.isfinite(r["median_depth_diff_mm"]) else np.nan
             ax.loglog(r["ms_per_ping"], y, marker, color=f"C{list(PRESETS).index(r['level']) if r['level'] in PRESETS else 4}")
-            ax.annotate(f"{r['level']} ({scene_name})", (r["ms_per_ping"], y), fontsize=7,
-                        textcoords="offset points", xytext=(4, 3))
+            ax.annotate(r["level"], (r["ms_per_ping"], y), fontsize=7, textcoords="offset points",
+                        xytext=(5, 4 if k % 2 == 0 else -11))  # scenes above / below their marker
     ax.axvline(30.0, color="0.6", ls=":", label="real sensor, one ping (30 ms)")
+    ax.set_xticks([10, 20, 50, 100, 200, 500, 1000])
+    ax.xaxis.set_major_formatter(ScalarFormatter())
+    ax.xaxis.set_minor_formatter(NullFormatter())
     ax.set_xlabel("wall-clock time per ping, end to end [ms] (2-core CPU)")
     ax.set_ylabel("median depth difference to 'fine' [mm] (floor 1e-3)")
     ax.set_title("Fidelity presets: speed against accuracy")

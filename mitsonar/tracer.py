@@ -27,10 +27,11 @@ The paper's model (``model='paper'``) instead takes 5 x 5 point reflectors 1.25 
 the beam with amplitude alpha beta R (1)(3): alpha the receive aperture's solid angle over 2 pi,
 beta ``paper_beta``, R the energy coefficient (4); no air absorption unless asked for.
 
-Everything after the intersections is NumPy on (hits x elements) arrays, kept factored per transmit
-and receive element (:class:`~mitsonar.hitpaths.HitPaths`); no Python loop runs over
-rays, paths or samples. :meth:`AcousticTracer.trace_many` runs every step once for the hits of a
-batch of beams (each with its own pose and seed), which pays the per-call costs once.
+After the intersections, per-hit geometry is NumPy and the per (hit, element) factors one Dr.Jit
+kernel (:mod:`~mitsonar.element_factors`), kept factored per transmit and receive element
+(:class:`~mitsonar.hitpaths.HitPaths`); no Python loop runs over rays, paths or samples.
+:meth:`AcousticTracer.trace_many` runs every step once for the hits of a batch of beams (each with
+its own pose and seed), which pays the per-call costs once.
 """
 
 from __future__ import annotations
