@@ -9,9 +9,10 @@ Fast synthesis (band-limited, exact for these signals): every path, shifted down
 the band's centre f_d (a phasor exp(-j 2 pi f_d tau_p)), is spread onto the sample grid with a
 short Gaussian kernel (a type-1 non-uniform FFT); one FFT per channel gives
 sum_p a_p exp(-j 2 pi f tau_p) times the kernel's transform at f - f_d, which is divided out
-inside the signal band and multiplied by the system spectrum W(f). The shift halves the highest
-frequency the kernel must resolve, and so its width. Cost: paths x kernel taps + one FFT per
-channel, instead of paths x samples for the direct summation (kept in the tests as the oracle).
+inside the signal band and multiplied by the system spectrum W(f). After the shift the kernel
+resolves half the band's width instead of its top frequency, so it is narrower. Cost: paths x
+kernel taps + one FFT per channel, instead of paths x samples for the direct summation (kept in
+the tests as the oracle).
 Fractional delays are exact up to the stated tolerance, far below one sample.
 """
 
