@@ -254,8 +254,8 @@ class Sonar:
                                     self.config.noise_rms, seed=[seed, 1])
         key = tuple(np.round(u, 12))
         if key not in self._direct_envelopes:  # depends on the direction only: computed once
-            self._direct_envelopes[key] = self.processor.envelope(
-                self.synthesizer.synthesize(direct, n_rx), u)
+            self._direct_envelopes[key] = self.processor.noiseless_envelope(
+                synth.group_spectrum(direct, None, n_rx), u)
         direct_envelope = self._direct_envelopes[key]
         envelope, detection = self.processor.process(recording, u, direct_envelope)
         return Ping(u, trace, recording, envelope, direct_envelope, detection)
