@@ -3,18 +3,23 @@ automatic choice that models no more than the scene needs.
 
 Knobs: the ray grid (``rays_per_axis``), sub-ray refinement at silhouettes and curved surfaces
 (``refine``), visibility of every receive element (``shadow_rays``), specular multipath
-(``max_bounces``), the recording's sample rate, merging of the transmit elements for
+(``max_bounces``), the recording's sample rate, complex baseband recordings and the spectral
+floor of their band (``baseband``, ``band_floor``), merging of the transmit elements for
 narrow-band signals (``narrowband_bandwidth``, see :class:`~mitsonar.sonar.SonarConfig`), and the
 camera's samples per pixel. Presets, cheapest first:
 
-========== ============= ====== ============ ========= ============ ============ ==========
-preset     rays_per_axis refine shadow_rays  bounces   sample rate  merge below  camera spp
-========== ============= ====== ============ ========= ============ ============ ==========
-draft      16            1      no           1         160 kHz      5 kHz        4
-standard   32            3      yes          1         200 kHz      5 kHz        16
-fine       48            3      yes          1         400 kHz      (exact)      64
-multipath  48            3      yes          2         400 kHz      (exact)      64
-========== ============= ====== ============ ========= ============ ============ ==========
+========== ============= ====== ====== ======== ======== ========= ========== ======== ======
+preset     rays_per_axis refine shadow bounces  sample   baseband  band floor merge    camera
+                                rays            rate                          below    spp
+========== ============= ====== ====== ======== ======== ========= ========== ======== ======
+draft      16            1      no     1        160 kHz  auto      1e-3       5 kHz    4
+standard   32            3      yes    1        200 kHz  auto      3e-4       5 kHz    16
+fine       48            3      yes    1        400 kHz  no        1e-5       (exact)  64
+multipath  48            3      yes    2        400 kHz  no        1e-5       (exact)  64
+========== ============= ====== ====== ======== ======== ========= ========== ======== ======
+
+("auto": complex baseband whenever the band is narrow enough to halve the numbers recorded, as
+it is behind the resonant transducers for pings.)
 
 ``standard`` is :class:`~mitsonar.sonar.SonarConfig`'s default. :func:`choose_fidelity` pings
 sample beams of a scene at every preset up to a reference and returns the cheapest whose
@@ -44,7 +49,10 @@ class Fidelity:
         refine: sub-rays per axis at silhouettes and curved surfaces (1 disables).
         shadow_rays: test the visibility of every receive element from every hit.
         max_bounces: 1 (single scattering) or 2 (plus one specular bounce).
-        sample_rate: recording sample rate [Hz] (>= 4x the carrier).
+        sample_rate: sample rate of real recordings [Hz] (>= 4x the carrier).
+        baseband: complex baseband recordings (None: when the band is narrow; see
+            :class:`~mitsonar.sonar.SonarConfig`).
+        band_floor: the recorded band keeps the echo spectrum down to this fraction of its peak.
         narrowband_bandwidth: merge transmit elements behind transducers up to this -6 dB
             bandwidth [Hz] (0: every element pair exactly).
         camera_spp: camera samples per pixel.
@@ -56,24 +64,27 @@ class Fidelity:
     shadow_rays: bool
     max_bounces: int
     sample_rate: float
+    baseband: bool | None
+    band_floor: float
     narrowband_bandwidth: float
     camera_spp: int
 
     def apply(self, config: SonarConfig) -> SonarConfig:
-        """``config`` with this level's trace settings and sample rate; the per-sample noise is
-        rescaled with the bandwidth so that the noise spectral density stays the same."""
+        """``config`` with this level's trace settings and recording form; the per-sample noise
+        is rescaled with the sample rate so that the noise spectral density stays the same."""
         trace = replace(config.trace, rays_per_axis=self.rays_per_axis, refine=self.refine,
                         shadow_rays=self.shadow_rays, max_bounces=self.max_bounces)
         noise = config.noise_rms * np.sqrt(self.sample_rate / config.sample_rate)
         return replace(config, trace=trace, sample_rate=self.sample_rate, noise_rms=noise,
+                       baseband=self.baseband, band_floor=self.band_floor,
                        narrowband_bandwidth=self.narrowband_bandwidth)
 
 
 PRESETS: dict[str, Fidelity] = {f.name: f for f in (
-    Fidelity("draft", 16, 1, False, 1, 160e3, 5000.0, 4),
-    Fidelity("standard", 32, 3, True, 1, 200e3, 5000.0, 16),
-    Fidelity("fine", 48, 3, True, 1, 400e3, 0.0, 64),
-    Fidelity("multipath", 48, 3, True, 2, 400e3, 0.0, 64),
+    Fidelity("draft", 16, 1, False, 1, 160e3, None, 1e-3, 5000.0, 4),
+    Fidelity("standard", 32, 3, True, 1, 200e3, None, 3e-4, 5000.0, 16),
+    Fidelity("fine", 48, 3, True, 1, 400e3, False, 1e-5, 0.0, 64),
+    Fidelity("multipath", 48, 3, True, 2, 400e3, False, 1e-5, 0.0, 64),
 )}
 
 

@@ -285,6 +285,7 @@ class OfdmSonar:
         duration = PRE_ROLL + len(self.codes) * self.codes[0].slot + listen
         self.synth = EchoSynthesizer(cfg.pulse, cfg.transducer, cfg.sample_rate, -PRE_ROLL, duration,
                                      cfg.transducer_response,
+                                     band_threshold=cfg.band_floor, baseband=cfg.baseband,
                                      waveforms=self.codes + tuple(t for c in self.codes for t in c.parts))
         from .processing import EchoProcessor
 
@@ -342,7 +343,7 @@ class OfdmSonar:
             [(sonar.tracer.direct_paths(schedule.directions[b]).delayed(offset), code)
              for b, offset, code in zip(beams, offsets, codes)], n_rx)
         total = np.sum(echo_spectra, axis=0) + direct_total
-        rec = self.synth.recording(self.synth.to_real(total), sonar.config.noise_rms,
+        rec = self.synth.recording(self.synth.to_samples(total), sonar.config.noise_rms,
                                    seed=_seed(seed, int(beams[0]), _NOISE_STREAM))
         out = {key: [] for key in ("detected", "depth", "amplitude", "points", "crosstalk")}
         max_path = 2.0 * sonar.config.max_range  # the listening window of every code

@@ -8,8 +8,11 @@ Order and choices:
 * Matched filter (6) with the expected echo shape (drive pulse through both transducer
   responses), normalised so that an echo of path gain A gives an envelope peak of |A| [Pa].
   Beamforming and filtering share one FFT per channel and one inverse FFT, and are computed on
-  the signal band only (:attr:`EchoSynthesizer.band <mitsonar.synthesis.EchoSynthesizer.band>`,
-  ~1/5 of the bins; the matched filter is zero elsewhere).
+  the signal band only (:attr:`EchoSynthesizer.band <mitsonar.synthesis.EchoSynthesizer.band>`;
+  the matched filter is zero elsewhere). Real and complex baseband recordings go through the
+  same chain: their spectra on the band are the same (:meth:`EchoSynthesizer.band_spectra
+  <mitsonar.synthesis.EchoSynthesizer.band_spectra>`); envelopes are sampled at the recording's
+  rate.
 * Envelope = |analytic output|; time of arrival at its strongest peak, refined by a parabola
   through the three samples around it.
 * Detection: candidates are the envelope's local maxima beyond ``min_range`` that exceed
@@ -46,7 +49,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.fft as sfft
 from scipy import sparse
 
 from .array import ArrayGeometry
@@ -173,14 +175,13 @@ class EchoProcessor:
             / self.c * synthesizer.sample_rate)) + 1
 
     def _matched_filter(self, waveform=None):
-        """(filter spectrum on the band (nb,), template energy) of a waveform: 2 conj(W) / E,
-        E = sum |w_a|^2."""
+        """(filter spectrum on the band (nb,), template energy) of a waveform: conj(W) / E,
+        E = sum |w_a|^2 over the samples of a real recording at the reference rate."""
         key = self.synth.pulse if waveform is None else waveform
         if key not in self._filters:
             w = self.synth.system_spectrum(key)
             energy = float(np.sum(np.abs(w) ** 2)) / self.synth.n_fft  # Parseval
-            # 2: analytic of a real signal
-            self._filters[key] = (2.0 * np.conj(w[self.synth.band]) / energy, energy)
+            self._filters[key] = (np.conj(w[self.synth.band]) / energy, energy)
         return self._filters[key]
 
     def noise_envelope_rms(self, waveform=None) -> float:
@@ -195,29 +196,22 @@ class EchoProcessor:
         return -(np.asarray(directions, dtype=float) @ (g.rx_positions - g.rx_origin).T) / self.c
 
     def _spectra(self, recording: Recording) -> np.ndarray:
-        """FFT of the recording's channels on the band, (N_rx, nb). The last recording's is kept:
-        an OFDM cycle decodes every beam and tone from one recording."""
+        """Analytic spectra of the recording's channels on the band, (N_rx, nb). The last
+        recording's are kept: an OFDM cycle decodes every beam and tone from one recording."""
         if self._last_spectra[0] is not recording:
-            spectra = sfft.rfft(recording.samples, n=self.synth.n_fft, axis=-1, workers=-1)
-            self._last_spectra = (recording, spectra[:, self.synth.band])
+            self._last_spectra = (recording, self.synth.band_spectra(recording.samples))
         return self._last_spectra[1]
 
     def compressed_spectra(self, recording: Recording, waveform=None) -> np.ndarray:
         """Matched-filtered analytic spectra of all channels on the band, (N_rx, nb)."""
         return self._spectra(recording) * self._matched_filter(waveform)[0]
 
-    def _to_time(self, band_spectra: np.ndarray, n_samples: int) -> np.ndarray:
-        """Analytic signals (..., n_samples) of spectra (..., nb) given on the band."""
-        full = np.zeros(band_spectra.shape[:-1] + (self.synth.n_fft,), dtype=complex)
-        full[..., self.synth.band] = band_spectra
-        return sfft.ifft(full, axis=-1, workers=-1)[..., :n_samples]
-
     def beamform(self, spectra: np.ndarray, n_samples: int, direction) -> np.ndarray:
         """Delay-and-sum of compressed spectra (N_rx, nb) towards ``direction`` (3,): analytic
         (N,) [Pa]."""
         delays = self.receive_delays(direction)
         steer = phasor(2 * np.pi * self._band_freq[None, :] * delays[:, None])  # < 2e2 rad
-        return self._to_time((spectra * steer).mean(axis=0), n_samples)
+        return self.synth.to_analytic((spectra * steer).mean(axis=0))[:n_samples]
 
     def envelope(self, recording: Recording, direction, waveform=None) -> np.ndarray:
         """Envelope (N,) [Pa] of the beamformed, matched-filtered recording."""
@@ -225,21 +219,20 @@ class EchoProcessor:
         return np.abs(self.beamform(self.compressed_spectra(recording, waveform), n, direction))
 
     def noiseless_envelope(self, spectrum: np.ndarray, direction, waveform=None) -> np.ndarray:
-        """Envelope (n_samples,) [Pa] of echoes given by their summed analytic spectrum
-        (N_rx, n_fft) (:meth:`EchoSynthesizer.groups_spectrum
+        """Envelope (n_samples,) [Pa] of echoes given by their summed analytic spectrum on the
+        band (N_rx, nb) (:meth:`EchoSynthesizer.groups_spectrum
         <mitsonar.synthesis.EchoSynthesizer.groups_spectrum>`): :meth:`envelope` of their
         noiseless recording, except that echoes are not cut at the recording's end."""
-        # The real recording's spectrum is half the analytic one at positive frequencies, where
-        # the matched filter (2 conj(W) / E) lives.
-        band = spectrum[:, self.synth.band]
-        return np.abs(self.beamform(0.5 * band * self._matched_filter(waveform)[0],
+        return np.abs(self.beamform(spectrum * self._matched_filter(waveform)[0],
                                     self.synth.n_samples, direction))
 
     def _baseband(self, spectra, n: int, start_time: float, carrier: float) -> np.ndarray:
         """(N_rx, n) analytic channels of compressed ``spectra`` (N_rx, nb) demodulated at
         ``carrier`` [Hz]; their first sample is at ``start_time`` [s]."""
         t = start_time + np.arange(n) / self.synth.sample_rate
-        return self._to_time(spectra, n) * np.exp(-2j * np.pi * carrier * t)
+        # The synthesizer's analytic signals are already demodulated by its own carrier.
+        shift = np.exp(-2j * np.pi * (carrier - self.synth.carrier) * t)
+        return self.synth.to_analytic(spectra)[:, :n] * shift
 
     def _delay_and_sum(self, directions, carrier: float, fraction: float = 0.0):
         """Narrow-band delay-and-sum towards directions (D, 3) as a sparse (D, N_rx x L) matrix

@@ -49,9 +49,11 @@ class SonarConfig:
         pulse: drive waveform.
         trace: ray-tracing fidelity and scattering model.
         detection: receiver decisions.
-        sample_rate: recording sample rate [Hz].
+        sample_rate: sample rate of real recordings [Hz]; it also sets the frequency grid and
+            the noise reference of baseband ones.
         max_range: farthest depth recorded [m].
-        noise_rms: receiver noise per sample [Pa].
+        noise_rms: receiver noise per sample of a real recording at ``sample_rate`` [Pa]
+            (baseband recordings carry the same noise density on their band).
         transducer_response: apply the resonant transmit and receive responses.
         narrowband_bandwidth: when the transducers' -6 dB bandwidth is at most this [Hz], each
             hit's transmit elements are merged into one path per receive channel before synthesis
@@ -61,6 +63,14 @@ class SonarConfig:
             on steered beams: < 1 % of the peak for the pulse, < 5 % for 36/44 kHz OFDM tones, up
             to 16 % for the 32/48 kHz tones (48 dB down). 0 (or ideal transducers) synthesises
             every element pair exactly.
+        baseband: record complex baseband (I/Q about the band centre, at twice the band's width;
+            :mod:`mitsonar.synthesis`) instead of real pressure at ``sample_rate``: the same
+            echoes on the band with a few times fewer samples to synthesise, add noise to and
+            process. None (default): whenever it takes at most half the numbers, i.e. the band
+            is at most ``sample_rate`` / 8 wide (resonant transducers: yes; the paper's ideal
+            ones, or OFDM codes' wider bands: no).
+        band_floor: the recorded band keeps the echo spectrum down to this fraction of its peak
+            (leaving out the rest changes the echoes by 2-4 times this, relative to the peak echo).
     """
 
     medium: Medium = field(default_factory=Medium)
@@ -74,6 +84,8 @@ class SonarConfig:
     noise_rms: float = 1e-3
     transducer_response: bool = True
     narrowband_bandwidth: float = 5000.0
+    baseband: bool | None = None
+    band_floor: float = 3e-4
 
     def __post_init__(self):
         check_positive("SonarConfig.sample_rate [Hz]", self.sample_rate)
@@ -81,6 +93,8 @@ class SonarConfig:
         if not self.narrowband_bandwidth >= 0:
             raise ValueError(f"SonarConfig.narrowband_bandwidth [Hz] must be >= 0, "
                              f"got {self.narrowband_bandwidth}")
+        if not 0 < self.band_floor < 1:
+            raise ValueError(f"SonarConfig.band_floor must be in (0, 1), got {self.band_floor}")
         if not (np.isfinite(self.noise_rms) and self.noise_rms >= 0):
             raise ValueError(f"SonarConfig.noise_rms [Pa] must be >= 0, got {self.noise_rms}")
         if self.sample_rate < 4 * self.pulse.frequency:
@@ -174,8 +188,9 @@ class Scan:
         depth: (B,) [m], NaN where nothing was detected.
         amplitude: (B,) strongest envelope value [Pa].
         points_sensor: (B, 3) reflectors, sensor frame, NaN where nothing was detected.
-        echoes: (B, N_rx, N) float32 recordings [Pa].
-        sample_rate: [Hz]; start_time: time of sample 0 [s].
+        echoes: (B, N_rx, N) recordings [Pa]: float32 pressure, or complex64 baseband when
+            ``carrier`` > 0 (pressure = Re(echoes exp(j 2 pi carrier t))).
+        sample_rate: [Hz]; start_time: time of sample 0 [s]; carrier: [Hz] (0: real pressure).
     """
 
     pose: Pose
@@ -187,6 +202,7 @@ class Scan:
     echoes: np.ndarray
     sample_rate: float
     start_time: float
+    carrier: float = 0.0
 
     def arrays(self) -> dict:
         """The scan as named arrays (the ``echoes.npz`` format of the README)."""
@@ -194,6 +210,7 @@ class Scan:
 
         h, v = fov_angles(self.directions)
         return dict(echoes=self.echoes, sample_rate=self.sample_rate, start_time=self.start_time,
+                    carrier_frequency=self.carrier,
                     directions=self.directions, horizontal_deg=np.degrees(h),
                     vertical_deg=np.degrees(v), detected=self.detected, depth=self.depth,
                     amplitude=self.amplitude, points_sensor=self.points_sensor)
@@ -219,7 +236,8 @@ class Sonar:
         self.tracer = AcousticTracer(self.scene, cfg.geometry, cfg.transducer, cfg.medium,
                                      cfg.pulse, cfg.trace)
         self.synthesizer = EchoSynthesizer(cfg.pulse, cfg.transducer, cfg.sample_rate, -PRE_ROLL,
-                                           cfg.record_duration, cfg.transducer_response)
+                                           cfg.record_duration, cfg.transducer_response,
+                                           band_threshold=cfg.band_floor, baseband=cfg.baseband)
         self.processor = EchoProcessor(cfg.geometry, self.synthesizer, cfg.medium.speed_of_sound,
                                        cfg.detection, cfg.noise_rms)
         self._direct_envelopes: dict = {}
@@ -250,7 +268,7 @@ class Sonar:
         direct = self.tracer.direct_paths(u)
         groups = self.echo_groups(trace.paths, self.config.pulse) + [(direct, self.config.pulse)]
         synth = self.synthesizer
-        recording = synth.recording(synth.to_real(synth.groups_spectrum(groups, n_rx)),
+        recording = synth.recording(synth.to_samples(synth.groups_spectrum(groups, n_rx)),
                                     self.config.noise_rms, seed=[seed, 1])
         key = tuple(np.round(u, 12))
         if key not in self._direct_envelopes:  # depends on the direction only: computed once
@@ -281,7 +299,9 @@ class Sonar:
         self.config.geometry.check_in_fov(dirs)
         dirs = dirs / np.linalg.norm(dirs, axis=1, keepdims=True)
         n_rx = self.config.geometry.rx.count
-        echoes = np.empty((len(dirs), n_rx, self.synthesizer.n_samples), dtype=np.float32)
+        synth = self.synthesizer
+        echoes = np.empty((len(dirs), n_rx, synth.n_samples),
+                          dtype=np.complex64 if synth.carrier else np.float32)
         detections = []
         for first in range(0, len(dirs), TRACE_BATCH):
             beams = range(first, min(first + TRACE_BATCH, len(dirs)))
@@ -298,8 +318,8 @@ class Sonar:
                     depth=np.array([d.depth for d in detections]),
                     amplitude=np.array([d.amplitude for d in detections]),
                     points_sensor=np.array([d.point for d in detections]).reshape(-1, 3),
-                    echoes=echoes, sample_rate=self.synthesizer.sample_rate,
-                    start_time=self.synthesizer.start_time)
+                    echoes=echoes, sample_rate=synth.sample_rate, start_time=synth.start_time,
+                    carrier=synth.carrier)
 
 
 def _beam_seed(seed: int, beam: int) -> int:

@@ -14,6 +14,15 @@ resolves half the band's width instead of its top frequency, so it is narrower. 
 kernel taps + one FFT per channel, instead of paths x samples for the direct summation (kept in
 the tests as the oracle).
 Fractional delays are exact up to the stated tolerance, far below one sample.
+
+Recordings are real pressure at the sample rate, or (``baseband``) complex baseband: the analytic
+recording a(t) demodulated by the band centre, a(t) exp(-j 2 pi f_d t), sampled at the band's own
+rate (about twice its width, a few times fewer numbers than the real recording). The pressure is
+Re(samples exp(j 2 pi f_d t)) at the sample times t. Both are exact on the band; the band keeps the
+system spectrum down to ``band_threshold`` of its peak (leaving out the rest changes the echoes by
+2-4 times that, relative to the peak echo). Spectra are handed around on the band only, as (..., nb)
+arrays of the analytic recording's spectrum (bins :attr:`EchoSynthesizer.band` of the frequency
+grid), whatever the recording's form.
 """
 
 from __future__ import annotations
@@ -43,14 +52,14 @@ def _spread_kernel():
 
     Arguments: the flat grid's size, positions (M,) [samples], row offsets (M,) into the flat
     grid, (re, im) gains, None or (re, im, carrier - f_d [rad/s]) of the first-order terms, the
-    shift f_d [cycles per sample], n_fft, half_width [taps], 1/sigma^2, fs/sigma^2. Returns the
-    (re, im) Int64 grids. (Each grid size is a separate recording: the grids are made inside, as
+    shift f_d [cycles per sample], the grid's period n_grid [samples], half_width [taps],
+    1/sigma^2, fs/sigma^2. Returns the (re, im) Int64 grids. (Each grid size is a separate recording: the grids are made inside, as
     scatter targets passed in would be replayed at the recorded size.)
     """
     import drjit as dr
     from drjit.llvm import Float64, Int64, UInt32
 
-    def spread(size, pos, row, gain, first_order, shift, n_fft, half_width, inv_var, rate_inv_var):
+    def spread(size, pos, row, gain, first_order, shift, n_grid, half_width, inv_var, rate_inv_var):
         acc = (dr.zeros(Int64, size), dr.zeros(Int64, size))
         cycles = shift * pos
         sin, cos = dr.sincos(-2 * np.pi * (cycles - dr.floor(cycles)))  # exp(-j 2 pi f_d tau)
@@ -80,7 +89,7 @@ def _spread_kernel():
                 x = rate_inv_var * (k - frac)
                 value_re = value_re + slope_re * x - slope_im * omega
                 value_im = value_im + slope_im * x + slope_re * omega
-            flat = UInt32(row + (base + (k + n_fft)) % n_fft)
+            flat = UInt32(row + (base + (k + n_grid)) % n_grid)
             dr.scatter_reduce(dr.ReduceOp.Add, acc[0], Int64(dr.round(weight * value_re)), flat)
             dr.scatter_reduce(dr.ReduceOp.Add, acc[1], Int64(dr.round(weight * value_im)), flat)
         return acc
@@ -199,19 +208,26 @@ class Paths:
         return len(self.gain)
 
 
+#: Complex baseband recordings are sampled at this many times the band's width.
+BASEBAND_OVERSAMPLING = 2
+
+
 @dataclass(frozen=True)
 class Recording:
     """Sampled echoes of all receive channels.
 
     Attributes:
-        samples: (N_rx, N) received pressure [Pa] (receiver response included).
+        samples: (N_rx, N) received pressure [Pa] (receiver response included), real; or complex
+            baseband when ``carrier`` > 0: the pressure is Re(samples exp(j 2 pi carrier t)).
         sample_rate: [Hz].
         start_time: time of sample 0 relative to the virtual firing of the transmit origin [s].
+        carrier: demodulation frequency of complex baseband samples [Hz] (0: real pressure).
     """
 
     samples: np.ndarray
     sample_rate: float
     start_time: float
+    carrier: float = 0.0
 
     @property
     def times(self) -> np.ndarray:
@@ -229,7 +245,8 @@ class EchoSynthesizer:
             ``frequency``, e.g. :class:`~mitsonar.signals.Pulse` or an OFDM code).
         transducer: element model; its response is applied twice (transmit and receive) when
             ``transducer_response`` is true.
-        sample_rate: recording sample rate [Hz].
+        sample_rate: sample rate of real recordings [Hz]; it sets the frequency grid (n_fft bins
+            of sample_rate / n_fft) and the noise reference (:meth:`recording`) in both forms.
         start_time: time of the first sample [s] (negative to record the firing itself).
         duration: recording length [s].
         transducer_response: apply H_tx H_rx (false: ideal flat transducers, as in (1)(3)).
@@ -237,11 +254,17 @@ class EchoSynthesizer:
         band_threshold: spectral components of the system waveform below this fraction of its
             peak are left out (they are far below the receiver noise).
         waveforms: further waveforms the synthesizer must serve (their bands set the kernel).
+        baseband: record complex baseband at ``BASEBAND_OVERSAMPLING`` times the band's width
+            (module docstring) instead of real pressure at ``sample_rate``; None: whenever that
+            takes at most half the numbers (the band at most sample_rate / 8 wide).
+
+    Attributes of the recordings made: ``sample_rate`` [Hz] (the band's rate with ``baseband``),
+    ``n_samples``, ``start_time`` [s] and ``carrier`` [Hz] (0 for real recordings).
     """
 
     def __init__(self, pulse, transducer: Transducer, sample_rate: float, start_time: float,
                  duration: float, transducer_response: bool = True, tolerance: float = 1e-6,
-                 band_threshold: float = 1e-5, waveforms=()):
+                 band_threshold: float = 1e-5, waveforms=(), baseband: bool | None = False):
         check_positive("sample_rate [Hz]", sample_rate)
         check_positive("duration [s]", duration)
         check_finite("start_time [s]", start_time)
@@ -249,14 +272,15 @@ class EchoSynthesizer:
         self.transducer = transducer
         self.transducer_response = transducer_response
         self.band_threshold = band_threshold
-        self.sample_rate = float(sample_rate)
+        self.reference_rate = float(sample_rate)
         self.start_time = float(start_time)
-        self.n_samples = int(np.ceil(duration * sample_rate))
+        n_real = int(np.ceil(duration * sample_rate))
         # Guard samples so that the ringing of the last echoes does not wrap onto the first ones.
         ringing = 14 * transducer.decay_time if transducer_response else 0.0
         longest = max(w.duration for w in (pulse,) + tuple(waveforms))
         guard = int(np.ceil((longest + ringing) * sample_rate)) + 64
-        self.n_fft = sfft.next_fast_len(self.n_samples + guard)
+        #: Size of the frequency grid, of real recordings' transforms and of their period.
+        self.n_fft = sfft.next_fast_len(n_real + guard)
         self._freq = np.fft.fftfreq(self.n_fft, 1.0 / sample_rate)
         self._spectra = {}
         self.band = None
@@ -267,7 +291,24 @@ class EchoSynthesizer:
         self.band = slice(int(nonzero[0]), int(nonzero[-1]) + 1)
         #: FFT bin of the band's centre f_d, by which paths are shifted down before gridding.
         self.shift_bin = (self.band.start + self.band.stop - 1) // 2
-        nu = (np.arange(self.band.start, self.band.stop) - self.shift_bin) / self.n_fft
+        band_bins = np.arange(self.band.start, self.band.stop)
+        if baseband is None:  # 2 numbers per complex sample
+            baseband = 2 * BASEBAND_OVERSAMPLING * len(band_bins) <= self.n_fft // 2
+        #: Samples per period of the impulse grid and of the recording: n_fft for real recordings,
+        #: ``BASEBAND_OVERSAMPLING`` x the band's bins for baseband (same period, same bins).
+        self.n_grid = sfft.next_fast_len(BASEBAND_OVERSAMPLING * len(band_bins)) if baseband \
+            else self.n_fft
+        #: Sample rate of the recordings [Hz].
+        self.sample_rate = self.reference_rate * self.n_grid / self.n_fft
+        self.n_samples = int(np.ceil(duration * self.sample_rate)) if baseband else n_real
+        #: Demodulation frequency of the recordings [Hz]: f_d for baseband, 0 for real pressure.
+        self.carrier = float(self._freq[self.shift_bin]) if baseband else 0.0
+        # Grid FFT bins of the band, and the recording's transform bins of the band with the
+        # factor from the grid's spectrum to a(t) exp(-j 2 pi carrier t) (module docstring).
+        self._grid_bins = (band_bins - self.shift_bin) % self.n_grid
+        self._output_bins = self._grid_bins if baseband else band_bins
+        self._output_scale = self.n_grid / self.n_fft * np.exp(-2j * np.pi * self.carrier * self.start_time)
+        nu = (band_bins - self.shift_bin) / self.n_grid
         nu_max = np.abs(nu).max()
         # Gaussian kernel (sigma in samples): aliasing from the images at fs - f stays below the
         # tolerance, and truncation stays below it after the deconvolution gain at nu_max (f
@@ -278,7 +319,6 @@ class EchoSynthesizer:
         self.half_width = int(np.ceil(self.sigma * np.sqrt(2 * np.log(deconv_gain / tolerance))))
         kernel_ft = self.sigma * np.sqrt(2 * np.pi) * np.exp(-2 * np.pi**2 * self.sigma**2 * nu**2)
         self._deconvolution = 1.0 / kernel_ft  # over the band
-        self._grid_bins = (np.arange(self.band.start, self.band.stop) - self.shift_bin) % self.n_fft
 
     @property
     def frequencies(self) -> np.ndarray:
@@ -294,10 +334,10 @@ class EchoSynthesizer:
             f = self._freq
             positive = f > 0
             w = np.zeros(self.n_fft, dtype=complex)
-            w[positive] = 2.0 * waveform.spectrum(f[positive]) * self.sample_rate
+            w[positive] = 2.0 * waveform.spectrum(f[positive]) * self.reference_rate
             if self.transducer_response:
                 w[positive] *= self.transducer.frequency_response(f[positive]) ** 2
-            band = (np.abs(w) > self.band_threshold * np.abs(w).max()) & (np.abs(f) < 0.4 * self.sample_rate)
+            band = (np.abs(w) > self.band_threshold * np.abs(w).max()) & (np.abs(f) < 0.4 * self.reference_rate)
             w = np.where(band, w, 0.0)
             if self.band is not None and (np.any(w[: self.band.start]) or np.any(w[self.band.stop:])):
                 raise ValueError(f"waveform {waveform!r} has a wider band than the synthesizer was "
@@ -323,8 +363,8 @@ class EchoSynthesizer:
 
     def impulse_grid(self, paths: Paths, n_channels: int) -> np.ndarray:
         """Spread paths, shifted down by the band centre f_d (:attr:`shift_bin`), onto the
-        (n_channels, n_fft) sample grid with the Gaussian kernel g: bin m of the grid's FFT holds
-        bin m + shift_bin of the spectrum, times the kernel's transform.
+        (n_channels, n_grid) sample grid (at :attr:`sample_rate`) with the Gaussian kernel g: bin
+        m of the grid's FFT holds bin m + shift_bin of the spectrum, times the kernel's transform.
 
         A first-order term b about f_c goes onto the same grid with the kernel's derivative,
         b (j 2 pi (f_c - f_d) g(x) - fs g'(x)), whose transform is -j 2 pi (f - f_c) times g's:
@@ -337,22 +377,22 @@ class EchoSynthesizer:
         import drjit as dr
         from drjit.llvm import Float64, Int64
 
-        u = (np.asarray(paths.delay) - self.start_time) * self.sample_rate
+        fs, n_grid = self.sample_rate, self.n_grid
+        u = (np.asarray(paths.delay) - self.start_time) * fs
         keep = (u > -self.half_width) & (u < self.n_samples + self.half_width)
         channel = np.asarray(paths.channel)[keep]
         if len(channel) and (channel.min() < 0 or channel.max() >= n_channels):
             raise ValueError(f"path channel out of range 0..{n_channels - 1}")
-        size = n_channels * self.n_fft
         gain = np.asarray(paths.gain)[keep]
         inv_var = 1.0 / self.sigma**2
-        omega = 2 * np.pi * (paths.carrier - self.shift_bin * self.sample_rate / self.n_fft)  # [rad/s]
+        omega = 2 * np.pi * (paths.carrier - self._freq[self.shift_bin])  # [rad/s]
         # |j omega g(x) - fs g'(x)| <= |omega| + fs |x| / sigma^2 over the taps, |x| <= half_width + 1.
         slope = None if paths.first_order is None else np.asarray(paths.first_order)[keep]
         bound = np.abs(gain) if slope is None else \
-            np.abs(gain) + np.abs(slope) * (abs(omega) + self.sample_rate * (self.half_width + 1) * inv_var)
+            np.abs(gain) + np.abs(slope) * (abs(omega) + fs * (self.half_width + 1) * inv_var)
         peak = float(np.max(bound, initial=0.0))
         if len(channel) == 0 or peak == 0.0:
-            return np.zeros((n_channels, self.n_fft), dtype=complex)
+            return np.zeros((n_channels, n_grid), dtype=complex)
         # Quantum 2^-36 of the largest contribution: up to 2^25 terms of that size cannot overflow
         # int64, and the rounding (1.5e-11 relative per term) is far below the synthesis tolerance.
         scale = 2.0 ** (36 - np.ceil(np.log2(peak)))
@@ -360,28 +400,27 @@ class EchoSynthesizer:
             to_jit(Float64, slope.real * scale), to_jit(Float64, slope.imag * scale),
             dr.opaque(Float64, omega))  # a variable, not a literal: one kernel for all carriers
         gains = (to_jit(Float64, gain.real * scale), to_jit(Float64, gain.imag * scale))
-        acc = _spread_kernel()(size, to_jit(Float64, u[keep]), to_jit(Int64, channel) * self.n_fft,
-                               gains, first_order, dr.opaque(Float64, self.shift_bin / self.n_fft),
-                               self.n_fft, self.half_width, inv_var,
-                               self.sample_rate * inv_var)
-        grid = np.empty((n_channels, self.n_fft), dtype=complex)
+        acc = _spread_kernel()(n_channels * n_grid, to_jit(Float64, u[keep]),
+                               to_jit(Int64, channel) * n_grid, gains, first_order,
+                               dr.opaque(Float64, self.shift_bin / n_grid), n_grid,
+                               self.half_width, inv_var, fs * inv_var)
+        grid = np.empty((n_channels, n_grid), dtype=complex)
         np.multiply(acc[0].numpy().reshape(grid.shape), 1.0 / scale, out=grid.real)
         np.multiply(acc[1].numpy().reshape(grid.shape), 1.0 / scale, out=grid.imag)
         return grid
 
     def analytic(self, paths: Paths, n_channels: int, waveform=None) -> np.ndarray:
-        """Analytic recordings (n_channels, n_samples), complex [Pa], of paths driven by
+        """Noiseless :meth:`to_analytic` recordings (n_channels, n_samples) of paths driven by
         ``waveform`` (default: the synthesizer's pulse)."""
         return self.analytic_sum([(paths, waveform)], n_channels)
 
     def analytic_sum(self, groups, n_channels: int) -> np.ndarray:
-        """Analytic recording of several path sets, each with its own waveform: [(paths, waveform)].
-        Groups sharing a waveform are synthesised together."""
+        """:meth:`analytic` of several path sets, each with its own waveform: [(paths, waveform)]."""
         return self.to_analytic(self.groups_spectrum(groups, n_channels))
 
     def groups_spectrum(self, groups, n_channels: int) -> np.ndarray:
-        """Summed analytic spectrum (n_channels, n_fft) of [(paths, waveform)] groups; spectra of
-        several calls add up to their joint recording (see :meth:`to_analytic`).
+        """Summed analytic spectrum on the band (n_channels, nb) of [(paths, waveform)] groups;
+        spectra of several calls add up to their joint recording (see :meth:`to_samples`).
 
         All groups go onto one impulse grid with a block of channels per distinct waveform (one
         kernel launch), transformed by one batched FFT.
@@ -393,27 +432,42 @@ class EchoSynthesizer:
         stacked = Paths.concatenate([replace(p.paths, channel=p.channel + k * n_channels, elements=None)
                                      for k, w in enumerate(waveforms) for p in by_waveform[w]])
         grid = self.impulse_grid(stacked, len(waveforms) * n_channels)
-        spectra = sfft.fft(grid, axis=-1, workers=-1).reshape(len(waveforms), n_channels, self.n_fft)
-        band = self.band
-        filters = np.stack([self.system_spectrum(w)[band] for w in waveforms]) * self._deconvolution
-        spectrum = np.zeros((n_channels, self.n_fft), dtype=complex)
-        spectrum[:, band] = spectra[0][:, self._grid_bins] * filters[0]
+        spectra = sfft.fft(grid, axis=-1, workers=-1).reshape(len(waveforms), n_channels, self.n_grid)
+        filters = np.stack([self.system_spectrum(w)[self.band] for w in waveforms]) * self._deconvolution
+        spectrum = spectra[0][:, self._grid_bins] * filters[0]
         for k in range(1, len(waveforms)):  # a few waveforms (einsum is 2x slower here)
-            spectrum[:, band] += spectra[k][:, self._grid_bins] * filters[k]
+            spectrum += spectra[k][:, self._grid_bins] * filters[k]
         return spectrum
 
     def group_spectrum(self, paths: Paths, waveform, n_channels: int) -> np.ndarray:
-        """Analytic spectrum (n_channels, n_fft) of the echoes of ``paths`` driven by ``waveform``."""
+        """Analytic spectrum on the band (n_channels, nb) of the echoes of ``paths`` driven by
+        ``waveform``."""
         return self.groups_spectrum([(paths, waveform)], n_channels)
 
     def to_analytic(self, spectrum: np.ndarray) -> np.ndarray:
-        """Analytic recording (n_channels, n_samples) from a summed group spectrum."""
-        return sfft.ifft(spectrum, axis=-1, workers=-1)[:, : self.n_samples]
+        """Analytic recording (..., n_samples), demodulated by :attr:`carrier`, of analytic spectra
+        on the band (..., nb): a(t) exp(-j 2 pi carrier t) at the sample times."""
+        full = np.zeros(spectrum.shape[:-1] + (self.n_grid,), dtype=complex)
+        full[..., self._output_bins] = spectrum * self._output_scale
+        return sfft.ifft(full, axis=-1, workers=-1)[..., : self.n_samples]
 
-    def to_real(self, spectrum: np.ndarray) -> np.ndarray:
-        """Real part of :meth:`to_analytic`, the recorded pressure (n_channels, n_samples) [Pa],
+    def band_spectra(self, samples: np.ndarray) -> np.ndarray:
+        """Analytic spectra on the band (..., nb) of recorded samples (..., n_samples), real or
+        baseband as this synthesizer records them: the inverse of :meth:`to_samples` on the band
+        (the recording's end cuts echoes that outlast it)."""
+        if self.carrier:
+            return sfft.fft(samples, n=self.n_grid, axis=-1, workers=-1)[..., self._output_bins] \
+                / self._output_scale
+        return 2.0 * sfft.rfft(samples, n=self.n_fft, axis=-1, workers=-1)[..., self.band]
+
+    def to_samples(self, spectrum: np.ndarray) -> np.ndarray:
+        """Noiseless recorded samples (n_channels, n_samples) of a summed analytic spectrum on the
+        band (n_channels, nb): complex baseband (:meth:`to_analytic`), or the real pressure [Pa]
         by a half-length inverse FFT (the spectrum lives at positive frequencies below fs / 2)."""
-        half = 0.5 * spectrum[:, : self.n_fft // 2 + 1]
+        if self.carrier:
+            return self.to_analytic(spectrum)
+        half = np.zeros((len(spectrum), self.n_fft // 2 + 1), dtype=complex)
+        half[:, self.band] = 0.5 * spectrum
         return sfft.irfft(half, n=self.n_fft, axis=-1, workers=-1)[:, : self.n_samples]
 
     def synthesize(self, paths: Paths, n_channels: int, noise_rms: float = 0.0,
@@ -423,19 +477,28 @@ class EchoSynthesizer:
         Args:
             paths: the acoustic paths.
             n_channels: number of receive channels.
-            noise_rms: noise standard deviation per sample [Pa]; needs ``seed`` when > 0.
+            noise_rms: noise standard deviation per real sample at ``reference_rate`` [Pa] (see
+                :meth:`recording`); needs ``seed`` when > 0.
             seed: seed of the noise generator (same seed, same recording).
             waveform: drive waveform (default: the synthesizer's pulse).
         """
-        return self.recording(self.to_real(self.group_spectrum(paths, waveform, n_channels)),
+        return self.recording(self.to_samples(self.group_spectrum(paths, waveform, n_channels)),
                               noise_rms, seed)
 
     def recording(self, channels: np.ndarray, noise_rms: float = 0.0, seed=None) -> Recording:
-        """Recording of channels (n_channels, n_samples) [Pa] (their real part if analytic), plus
-        seeded white receiver noise [Pa]."""
-        samples = channels.real
+        """Recording of channels (n_channels, n_samples) [Pa] (real recordings keep the real part
+        of analytic ones), plus seeded white receiver noise of ``noise_rms`` [Pa] per sample of
+        a real recording at ``reference_rate``. Baseband noise has the same density on the band:
+        complex, sqrt(2 sample_rate / reference_rate) ``noise_rms`` in each part."""
+        samples = channels if self.carrier else channels.real
         if noise_rms > 0:
             if seed is None:
                 raise ValueError("noise_rms > 0 needs an explicit seed")
-            samples = samples + np.random.default_rng(seed).normal(0.0, noise_rms, samples.shape)
-        return Recording(samples, self.sample_rate, self.start_time)
+            rng = np.random.default_rng(seed)
+            if self.carrier:
+                sigma = noise_rms * np.sqrt(2 * self.sample_rate / self.reference_rate)
+                noise = rng.normal(0.0, sigma, (2,) + samples.shape)
+                samples = samples + (noise[0] + 1j * noise[1])
+            else:
+                samples = samples + rng.normal(0.0, noise_rms, samples.shape)
+        return Recording(samples, self.sample_rate, self.start_time, self.carrier)

@@ -29,7 +29,9 @@ def test_scan_command_writes_outputs(small_scene, tmp_path, capsys):
     # specular return arrives through the side lobes and is rejected, not misranged.
     assert summary["beams"] == 3 and summary["detected"] >= 1
     data = np.load(out / "echoes.npz")
-    assert data["echoes"].shape[:2] == (3, 25) and data["echoes"].dtype == np.float32
+    # Complex baseband (the default behind resonant transducers) about the band's centre.
+    assert data["echoes"].shape[:2] == (3, 25) and data["echoes"].dtype == np.complex64
+    assert 35e3 < data["carrier_frequency"] < 45e3 and data["sample_rate"] < 100e3
     assert data["detected"][1] and np.isnan(data["depth"][~data["detected"]]).all()
     ply = (out / "points.ply").read_text().splitlines()
     assert f"element vertex {summary['detected']}" in ply
