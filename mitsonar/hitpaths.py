@@ -8,8 +8,8 @@ directions). :class:`HitPaths` stores the factors, (H, N_tx) and (H, N_rx) array
 * expands them into :class:`~mitsonar.synthesis.Paths` only when every pair is synthesised
   (``fine`` fidelity, broadband transducers, the tests' references);
 * merges each patch's transmit elements narrow-band (:meth:`HitPaths.narrowband`, the same merge
-  as :meth:`Paths.narrowband`) in one fused Dr.Jit kernel, one thread per (patch, receive
-  element), without ever forming the H x N_tx x N_rx arrays.
+  as :meth:`Paths.narrowband`) in one fused Dr.Jit kernel, one thread per patch and group of
+  receive elements, without ever forming the H x N_tx x N_rx arrays.
 """
 
 from __future__ import annotations
@@ -139,13 +139,13 @@ class HitPaths:
     def narrowband(self, frequency: float) -> Paths:
         """Each patch's transmit elements merged into one path per receive element about
         ``frequency`` [Hz], with first-order terms: :meth:`Paths.narrowband` of the expanded
-        paths, computed in single precision by one fused kernel (H x N_rx threads)."""
+        paths, computed in single precision by one fused kernel."""
         return self.narrowband_many([frequency])[0]
 
     def narrowband_many(self, frequencies) -> list[Paths]:
         """:meth:`narrowband` about each of ``frequencies`` [Hz] (an OFDM code's tones), in one
         kernel: the element-pair gains are formed once for all of them."""
-        from drjit.llvm import Float32
+        from drjit.llvm import Float32, UInt32
 
         n_tx, n_rx = self.elements
         n_hits = len(self.tx_delay)
@@ -164,60 +164,76 @@ class HitPaths:
                                self.tx_sinc[..., 1], self.tx_delay - tx_mean)]
         # Opaque carriers: variables, not literals, so one kernel serves every tone.
         omegas = [dr.opaque(Float32, -2.0 * np.pi * f) for f in frequencies]
-        mean_tau, sums = _merge_kernel()(tx, rx, omegas, n_tx, n_rx)
-        centre = (self.rx_delay + tx_mean + mean_tau.numpy().reshape(n_hits, n_rx)).ravel()
+        group = next(g for g in range(min(MERGE_GROUP, n_rx), 0, -1) if n_rx % g == 0)
+        # Thread indices passed in: a size computed inside a frozen function is fixed when traced.
+        thread = to_jit(UInt32, np.arange(n_hits * n_rx // group, dtype=np.uint32))
+        outputs = _merge_kernel()(thread, tx, rx, omegas, n_tx, n_rx, group)
+
+        def per_pair(k: int) -> np.ndarray:
+            """Output k of every thread's receive elements as (H x N_rx,), (patch, element) order:
+            thread t serves elements t * group + (0 .. group - 1) of the flat order."""
+            return np.stack([out[k].numpy() for out in outputs], axis=-1).ravel()
+
+        centre = (self.rx_delay + tx_mean).ravel() + per_pair(0)
         channel = np.tile(np.arange(n_rx), n_hits)
-        return [Paths(a_re.numpy().astype(float) + 1j * a_im.numpy(), centre, channel,
-                      first_order=b_re.numpy().astype(float) + 1j * b_im.numpy(),
+        return [Paths(per_pair(k).astype(float) + 1j * per_pair(k + 1), centre, channel,
+                      first_order=per_pair(k + 2).astype(float) + 1j * per_pair(k + 3),
                       carrier=float(frequency))
-                for frequency, (a_re, a_im, b_re, b_im) in zip(frequencies, sums)]
+                for k, frequency in zip(range(1, 4 * len(frequencies), 4), frequencies)]
+
+
+#: Receive elements per thread of the merge kernel: each thread loads its patch's transmit factors
+#: once for this many receive elements (gathers dominated the kernel with one per thread).
+MERGE_GROUP = 5
 
 
 @cache
 def _merge_kernel():
     """The fused kernel of :meth:`HitPaths.narrowband_many`, frozen (``drjit.freeze``): traced
-    once per (tone count, element counts), then replayed without Python tracing.
+    once per (tone count, element counts, group), then replayed without Python tracing.
 
-    Arguments: the 8 transmit factors (H x N_tx,) and 7 receive factors (H x N_rx,) as listed
-    there, the tones' -2 pi f [rad/s], N_tx, N_rx. Returns the mean delay offset per thread [s]
-    and (a_re, a_im, b_re, b_im) per tone.
+    Arguments: thread indices 0 .. H x N_rx / g - 1, the 8 transmit factors (H x N_tx,) and 7
+    receive factors (H x N_rx,) as listed there, the tones' -2 pi f [rad/s], N_tx, N_rx, the
+    group g of receive elements per thread. Returns per receive element of the group a tuple: the mean delay
+    offset [s], then (a_re, a_im, b_re, b_im) per tone, each (H x N_rx / g,).
     """
-    from drjit.llvm import Float32, UInt32
+    from drjit.llvm import Float32
 
-    def merge(tx, rx, omegas, n_tx, n_rx):
-        q_re, q_im, v_re, v_im, d, b1, b2 = rx
-        row = (dr.arange(UInt32, dr.width(d)) // n_rx) * n_tx
-        gains = []
-        for i in range(n_tx):  # the transmit elements of each thread's patch (unrolled)
-            p_re, p_im, u_re, u_im, c, a1, a2, tau_i = (dr.gather(Float32, x, row + i) for x in tx)
-            patch = (c + d) * _sinc_dr(a1 + b1) * _sinc_dr(a2 + b2)
-            g_re = (p_re * q_re - p_im * q_im) * patch + u_re * v_re - u_im * v_im
-            g_im = (p_re * q_im + p_im * q_re) * patch + u_re * v_im + u_im * v_re
-            gains.append((g_re, g_im, tau_i))
-        weight = [dr.sqrt(g_re * g_re + g_im * g_im) for g_re, g_im, _ in gains]
-        total = sum(weight)
-        mean_tau = dr.select(total > 0, sum(w * t for w, (_, _, t) in zip(weight, gains))
-                             / dr.select(total > 0, total, 1.0), 0.0)
-        sums = []
-        # exp(j omega (tau_i - m)) = exp(j omega tau_i) exp(-j omega m): the first factor per
-        # (patch, transmit element), the second per thread, so no sine per element pair:
-        # A = Q sum g_i P_i, B = Q (sum g_i P_i tau_i - m sum g_i P_i), P_i = exp(j omega tau_i),
-        # Q = exp(-j omega m).
-        tau = tx[7]
-        for omega in omegas:
-            sin_tx, cos_tx = dr.sincos(omega * tau)
-            dr.eval(sin_tx, cos_tx)  # gathered from below
-            s0_re = s0_im = s1_re = s1_im = Float32(0.0)
-            for i, (g_re, g_im, tau_i) in enumerate(gains):
-                p_im, p_re = dr.gather(Float32, sin_tx, row + i), dr.gather(Float32, cos_tx, row + i)
-                c_re, c_im = g_re * p_re - g_im * p_im, g_re * p_im + g_im * p_re
-                s0_re, s0_im = s0_re + c_re, s0_im + c_im
-                s1_re, s1_im = s1_re + c_re * tau_i, s1_im + c_im * tau_i
-            e_im, e_re = dr.sincos(-omega * mean_tau)
-            r_re, r_im = s1_re - mean_tau * s0_re, s1_im - mean_tau * s0_im
-            sums.append((s0_re * e_re - s0_im * e_im, s0_re * e_im + s0_im * e_re,
-                         r_re * e_re - r_im * e_im, r_re * e_im + r_im * e_re))
-        return mean_tau, sums
+    def merge(thread, tx, rx, omegas, n_tx, n_rx, group):
+        tx_row = thread // (n_rx // group) * n_tx
+        # The patch's transmit factors and per-tone phasors exp(j omega tau_i), loaded once.
+        tx_values = [[dr.gather(Float32, x, tx_row + i) for x in tx] for i in range(n_tx)]
+        phasors = [[dr.sincos(omega * values[7]) for values in tx_values] for omega in omegas]
+        outputs = []
+        for j in range(group):  # receive element thread * group + j (unrolled)
+            q_re, q_im, v_re, v_im, d, b1, b2 = (dr.gather(Float32, x, thread * group + j) for x in rx)
+            gains = []
+            for p_re, p_im, u_re, u_im, c, a1, a2, tau_i in tx_values:  # (unrolled)
+                patch = (c + d) * _sinc_dr(a1 + b1) * _sinc_dr(a2 + b2)
+                g_re = (p_re * q_re - p_im * q_im) * patch + u_re * v_re - u_im * v_im
+                g_im = (p_re * q_im + p_im * q_re) * patch + u_re * v_im + u_im * v_re
+                gains.append((g_re, g_im, tau_i))
+            weight = [dr.sqrt(g_re * g_re + g_im * g_im) for g_re, g_im, _ in gains]
+            total = sum(weight)
+            mean_tau = dr.select(total > 0, sum(w * t for w, (_, _, t) in zip(weight, gains))
+                                 / dr.select(total > 0, total, 1.0), 0.0)
+            out = [mean_tau]
+            # exp(j omega (tau_i - m)) = exp(j omega tau_i) exp(-j omega m): the first factor per
+            # (patch, transmit element), the second per receive element, so no sine per element
+            # pair: A = Q sum g_i P_i, B = Q (sum g_i P_i tau_i - m sum g_i P_i),
+            # P_i = exp(j omega tau_i), Q = exp(-j omega m).
+            for omega, tone_phasors in zip(omegas, phasors):
+                s0_re = s0_im = s1_re = s1_im = Float32(0.0)
+                for (g_re, g_im, tau_i), (p_im, p_re) in zip(gains, tone_phasors):
+                    c_re, c_im = g_re * p_re - g_im * p_im, g_re * p_im + g_im * p_re
+                    s0_re, s0_im = s0_re + c_re, s0_im + c_im
+                    s1_re, s1_im = s1_re + c_re * tau_i, s1_im + c_im * tau_i
+                e_im, e_re = dr.sincos(-omega * mean_tau)
+                r_re, r_im = s1_re - mean_tau * s0_re, s1_im - mean_tau * s0_im
+                out += [s0_re * e_re - s0_im * e_im, s0_re * e_im + s0_im * e_re,
+                        r_re * e_re - r_im * e_im, r_re * e_im + r_im * e_re]
+            outputs.append(tuple(out))
+        return outputs
 
     return dr.freeze(merge)
 

@@ -250,7 +250,8 @@ class EchoSynthesizer:
         start_time: time of the first sample [s] (negative to record the firing itself).
         duration: recording length [s].
         transducer_response: apply H_tx H_rx (false: ideal flat transducers, as in (1)(3)).
-        tolerance: relative accuracy of the kernel (aliasing and truncation).
+        tolerance: relative accuracy of the kernel (aliasing and truncation); default a tenth of
+            ``band_threshold``, below the band's own error.
         band_threshold: spectral components of the system waveform below this fraction of its
             peak are left out (they are far below the receiver noise).
         waveforms: further waveforms the synthesizer must serve (their bands set the kernel).
@@ -263,7 +264,7 @@ class EchoSynthesizer:
     """
 
     def __init__(self, pulse, transducer: Transducer, sample_rate: float, start_time: float,
-                 duration: float, transducer_response: bool = True, tolerance: float = 1e-6,
+                 duration: float, transducer_response: bool = True, tolerance: float | None = None,
                  band_threshold: float = 1e-5, waveforms=(), baseband: bool | None = False):
         check_positive("sample_rate [Hz]", sample_rate)
         check_positive("duration [s]", duration)
@@ -313,6 +314,8 @@ class EchoSynthesizer:
         # Gaussian kernel (sigma in samples): aliasing from the images at fs - f stays below the
         # tolerance, and truncation stays below it after the deconvolution gain at nu_max (f
         # relative to f_d).
+        #: Relative accuracy of the gridding kernel.
+        self.tolerance = tolerance = 0.1 * band_threshold if tolerance is None else tolerance
         log_tol = np.log(1.0 / tolerance)
         self.sigma = float(np.sqrt(log_tol / (2 * np.pi**2 * (1 - 2 * nu_max))))
         deconv_gain = np.exp(2 * np.pi**2 * self.sigma**2 * nu_max**2)
