@@ -18,8 +18,8 @@ fine       48            3      yes    1        400 kHz  no        1e-5       (e
 multipath  48            3      yes    2        400 kHz  no        1e-5       (exact)  64
 ========== ============= ====== ====== ======== ======== ========= ========== ======== ======
 
-("auto": complex baseband whenever the band is narrow enough to halve the numbers recorded, as
-it is behind the resonant transducers for pings.)
+("auto": complex baseband whenever the band is at most 0.35 x the sample rate wide, as it is
+behind the resonant transducers.)
 
 ``standard`` is :class:`~mitsonar.sonar.SonarConfig`'s default. :func:`choose_fidelity` pings
 sample beams of a scene at every preset up to a reference and returns the cheapest whose

@@ -66,9 +66,8 @@ class SonarConfig:
         baseband: record complex baseband (I/Q about the band centre, at twice the band's width;
             :mod:`mitsonar.synthesis`) instead of real pressure at ``sample_rate``: the same
             echoes on the band with a few times fewer samples to synthesise, add noise to and
-            process. None (default): whenever it takes at most half the numbers, i.e. the band
-            is at most ``sample_rate`` / 8 wide (resonant transducers: yes; the paper's ideal
-            ones, or OFDM codes' wider bands: no).
+            process. None (default): whenever the band is at most 0.35 ``sample_rate`` wide
+            (resonant transducers: yes; the paper's ideal ones: no).
         band_floor: the recorded band keeps the echo spectrum down to this fraction of its peak
             (leaving out the rest changes the echoes by 2-4 times this, relative to the peak echo).
     """
