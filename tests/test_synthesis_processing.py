@@ -21,7 +21,8 @@ def wall_path(tmp_path_factory):
 def test_fast_synthesis_equals_direct_summation(wall_path):
     """Same paths (the paper model's 25 reflectors x 625 element pairs), ideal transducers."""
     cfg = mitsonar.SonarConfig(trace=mitsonar.TraceSettings(model="paper"), transducer_response=False,
-                               sample_rate=400e3, noise_rms=0.0, max_range=1.5, baseband=False)
+                               sample_rate=400e3, noise_rms=0.0, max_range=1.5, baseband=False,
+                               band_floor=1e-5)
     sonar = mitsonar.Sonar(wall_path, cfg)
     paths = sonar.tracer.trace(IDENTITY, BROADSIDE).paths
     fast = sonar.synthesizer.synthesize(paths, 25)
@@ -178,7 +179,8 @@ def test_baseband_recording_equals_direct_summation(wall_path):
     model's paths, ideal transducers), against the direct summation of (1)(3) at the baseband
     sample times; band_spectra inverts to_samples on the band."""
     cfg = mitsonar.SonarConfig(trace=mitsonar.TraceSettings(model="paper"), transducer_response=False,
-                               sample_rate=400e3, noise_rms=0.0, max_range=1.5, baseband=True)
+                               sample_rate=400e3, noise_rms=0.0, max_range=1.5, baseband=True,
+                               band_floor=1e-5)
     sonar = mitsonar.Sonar(wall_path, cfg)
     synth = sonar.synthesizer
     paths = sonar.tracer.trace(IDENTITY, BROADSIDE).paths
