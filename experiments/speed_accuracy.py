@@ -83,13 +83,16 @@ def write_outputs(out: Path, rows: list[dict]) -> None:
 
     fig, ax = plt.subplots(figsize=(7, 4.5))
     scenes = list(dict.fromkeys(r["scene"] for r in rows))
-    for k, (scene_name, marker) in enumerate(zip(scenes, "osd^v")):
+    levels = list(dict.fromkeys(r["level"] for r in rows))
+    colour = {level: f"C{list(PRESETS).index(level) if level in PRESETS else 4}" for level in levels}
+    for scene_name, marker in zip(scenes, "osd^v"):  # legend: a marker per scene ...
         ax.plot([], [], marker, color="0.4", label=scene_name)
+    for level in levels:  # ... and a colour per level
+        ax.plot([], [], "s", color=colour[level], label=level)
+    for scene_name, marker in zip(scenes, "osd^v"):
         for r in (r for r in rows if r["scene"] == scene_name):
             y = max(r["median_depth_diff_mm"], 1e-3) if np.isfinite(r["median_depth_diff_mm"]) else np.nan
-            ax.loglog(r["ms_per_ping"], y, marker, color=f"C{list(PRESETS).index(r['level']) if r['level'] in PRESETS else 4}")
-            ax.annotate(r["level"], (r["ms_per_ping"], y), fontsize=7, textcoords="offset points",
-                        xytext=(5, 4 if k % 2 == 0 else -11))  # scenes above / below their marker
+            ax.loglog(r["ms_per_ping"], y, marker, color=colour[r["level"]])
     ax.axvline(30.0, color="0.6", ls=":", label="real sensor, one ping (30 ms)")
     ax.set_xticks([10, 20, 50, 100, 200, 500, 1000])
     ax.xaxis.set_major_formatter(ScalarFormatter())
@@ -97,7 +100,7 @@ def write_outputs(out: Path, rows: list[dict]) -> None:
     ax.set_xlabel("wall-clock time per ping, end to end [ms] (2-core CPU)")
     ax.set_ylabel("median depth difference to 'fine' [mm] (floor 1e-3)")
     ax.set_title("Fidelity presets: speed against accuracy")
-    ax.legend(fontsize=8)
+    ax.legend(fontsize=8, ncol=2)
     fig.tight_layout()
     save_png(fig, out / "speed_accuracy.png")
     print("\n".join(md))
