@@ -226,7 +226,7 @@ class EchoProcessor:
         return np.abs(self.beamform(spectrum * self._matched_filter(waveform)[0],
                                     self.synth.n_samples, direction))
 
-    def _baseband(self, spectra, n: int, start_time: float, carrier: float) -> np.ndarray:
+    def _demodulated(self, spectra, n: int, start_time: float, carrier: float) -> np.ndarray:
         """(N_rx, n) analytic channels of compressed ``spectra`` (N_rx, nb) demodulated at
         ``carrier`` [Hz]; their first sample is at ``start_time`` [s]."""
         t = start_time + np.arange(n) / self.synth.sample_rate
@@ -237,8 +237,8 @@ class EchoProcessor:
     def _delay_and_sum(self, directions, carrier: float, fraction: float = 0.0):
         """Narrow-band delay-and-sum towards directions (D, 3) as a sparse (D, N_rx x L) matrix
         acting on windows of L = 2 W + 2 samples per channel of channels demodulated at
-        ``carrier`` [Hz] (:meth:`_baseband`): the window starting W samples before sample k gives
-        the beams at sample k + ``fraction``, each channel read at its delay (5) by linear
+        ``carrier`` [Hz] (:meth:`_demodulated`): the window starting W samples before sample k
+        gives the beams at sample k + ``fraction``, each channel read at its delay (5) by linear
         interpolation and phase-aligned at the carrier. W covers the largest delay."""
         fs = self.synth.sample_rate
         delays = self.receive_delays(directions)  # (D, N_rx) [s]
@@ -378,7 +378,7 @@ class EchoProcessor:
         if len(candidates) == 0:
             return Detection(False, np.nan, np.nan, np.nan, nan3, nan3, amplitude, level)
         check, locate = s.ghost_margin > 0, s.arrival_step > 0
-        looks = [(self._baseband(spectra, n, start_time, carrier), carrier)
+        looks = [(self._demodulated(spectra, n, start_time, carrier), carrier)
                  for spectra, carrier in looks] if check or locate else []
         if looks and check:  # a candidate must pass in every look
             candidates = candidates[~self._arrives_off_beam(looks, candidates, u)][:1]

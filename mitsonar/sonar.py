@@ -300,7 +300,7 @@ class Sonar:
         n_rx = self.config.geometry.rx.count
         synth = self.synthesizer
         echoes = np.empty((len(dirs), n_rx, synth.n_samples),
-                          dtype=np.complex64 if synth.carrier else np.float32)
+                          dtype=np.complex64 if synth.baseband else np.float32)
         detections = []
         for first in range(0, len(dirs), TRACE_BATCH):
             beams = range(first, min(first + TRACE_BATCH, len(dirs)))

@@ -299,6 +299,8 @@ class EchoSynthesizer:
         band_bins = np.arange(self.band.start, self.band.stop)
         if baseband is None:
             baseband = BASEBAND_OVERSAMPLING * len(band_bins) <= BASEBAND_AUTO * self.n_fft
+        #: True: recordings are complex baseband; False: real pressure.
+        self.baseband = bool(baseband)
         #: Samples per period of the impulse grid and of the recording: n_fft for real recordings,
         #: ``BASEBAND_OVERSAMPLING`` x the band's bins for baseband (same period, same bins).
         self.n_grid = sfft.next_fast_len(BASEBAND_OVERSAMPLING * len(band_bins)) if baseband \
@@ -312,14 +314,15 @@ class EchoSynthesizer:
         # factor from the grid's spectrum to a(t) exp(-j 2 pi carrier t) (module docstring).
         self._grid_bins = (band_bins - self.shift_bin) % self.n_grid
         self._output_bins = self._grid_bins if baseband else band_bins
-        self._output_scale = self.n_grid / self.n_fft * np.exp(-2j * np.pi * self.carrier * self.start_time)
+        self._output_scale = self.n_grid / self.n_fft \
+            * np.exp(-2j * np.pi * self.carrier * self.start_time)
         nu = (band_bins - self.shift_bin) / self.n_grid
         nu_max = np.abs(nu).max()
+        #: Relative accuracy of the gridding kernel.
+        self.tolerance = tolerance = 0.1 * band_threshold if tolerance is None else tolerance
         # Gaussian kernel (sigma in samples): aliasing from the images at fs - f stays below the
         # tolerance, and truncation stays below it after the deconvolution gain at nu_max (f
         # relative to f_d).
-        #: Relative accuracy of the gridding kernel.
-        self.tolerance = tolerance = 0.1 * band_threshold if tolerance is None else tolerance
         log_tol = np.log(1.0 / tolerance)
         self.sigma = float(np.sqrt(log_tol / (2 * np.pi**2 * (1 - 2 * nu_max))))
         deconv_gain = np.exp(2 * np.pi**2 * self.sigma**2 * nu_max**2)
@@ -462,7 +465,7 @@ class EchoSynthesizer:
         """Analytic spectra on the band (..., nb) of recorded samples (..., n_samples), real or
         baseband as this synthesizer records them: the inverse of :meth:`to_samples` on the band
         (the recording's end cuts echoes that outlast it)."""
-        if self.carrier:
+        if self.baseband:
             return sfft.fft(samples, n=self.n_grid, axis=-1, workers=-1)[..., self._output_bins] \
                 / self._output_scale
         return 2.0 * sfft.rfft(samples, n=self.n_fft, axis=-1, workers=-1)[..., self.band]
@@ -471,7 +474,7 @@ class EchoSynthesizer:
         """Noiseless recorded samples (n_channels, n_samples) of a summed analytic spectrum on the
         band (n_channels, nb): complex baseband (:meth:`to_analytic`), or the real pressure [Pa]
         by a half-length inverse FFT (the spectrum lives at positive frequencies below fs / 2)."""
-        if self.carrier:
+        if self.baseband:
             return self.to_analytic(spectrum)
         half = np.zeros((len(spectrum), self.n_fft // 2 + 1), dtype=complex)
         half[:, self.band] = 0.5 * spectrum
@@ -497,12 +500,12 @@ class EchoSynthesizer:
         of analytic ones), plus seeded white receiver noise of ``noise_rms`` [Pa] per sample of
         a real recording at ``reference_rate``. Baseband noise has the same density on the band:
         complex, sqrt(2 sample_rate / reference_rate) ``noise_rms`` in each part."""
-        samples = channels if self.carrier else channels.real
+        samples = channels if self.baseband else channels.real
         if noise_rms > 0:
             if seed is None:
                 raise ValueError("noise_rms > 0 needs an explicit seed")
             rng = np.random.default_rng(seed)
-            if self.carrier:
+            if self.baseband:
                 sigma = noise_rms * np.sqrt(2 * self.sample_rate / self.reference_rate)
                 noise = rng.normal(0.0, sigma, (2,) + samples.shape)
                 samples = samples + (noise[0] + 1j * noise[1])
