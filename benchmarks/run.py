@@ -10,7 +10,9 @@ absolute numbers, across machines.
 from __future__ import annotations
 
 import argparse
+import cProfile
 import json
+import pstats
 import subprocess
 import sys
 import time
@@ -36,6 +38,46 @@ def _timed(fn, repeat: int = 1):
     for _ in range(repeat):
         out = fn()
     return (time.perf_counter() - t0) / repeat, out
+
+
+#: Stages of the profile: (name, functions whose inclusive times add up, functions subtracted),
+#: functions as (file, name). Disjoint by construction; the rest is "other".
+STAGES = (
+    ("ray casts and refinement", [("tracer.py", "_cast")], []),
+    ("shadow rays", [("tracer.py", "_visibility")], []),
+    ("element-factor kernel", [("element_factors.py", "element_factors")], []),
+    ("rest of the trace (per-hit NumPy)", [("tracer.py", "trace_many")],
+     [("tracer.py", "_cast"), ("tracer.py", "_visibility"), ("element_factors.py", "element_factors")]),
+    ("narrow-band merge kernel", [("hitpaths.py", "narrowband_many")], []),
+    ("gridding kernel", [("synthesis.py", "impulse_grid")], []),
+    ("synthesis FFTs and filters", [("synthesis.py", "groups_spectrum"), ("synthesis.py", "to_samples")],
+     [("synthesis.py", "impulse_grid")]),
+    ("receiver noise", [("synthesis.py", "recording")], []),
+    ("receive chain (beamforming to depth)", [("processing.py", "process"),
+                                              ("processing.py", "noiseless_envelope")], []),
+)
+
+
+def profile(fn, beams: int, units: int, rate_name: str) -> list:
+    """Where the time of ``fn`` (``beams`` beams, ``units`` pings or frames) goes, by
+    :data:`STAGES` (cProfile, inclusive times): prints one line per stage with its time per
+    beam, its share, and the rate that stage alone would allow; returns [(stage, seconds per
+    beam)]."""
+    profiler = cProfile.Profile()
+    profiler.runcall(fn)
+    stats = pstats.Stats(profiler).stats  # (file, line, name) -> (cc, nc, tt, ct, callers)
+    inclusive: dict = {}
+    for (file, _, name), (_, _, _, ct, _) in stats.items():
+        key = (Path(file).name, name)
+        inclusive[key] = inclusive.get(key, 0.0) + ct
+    total = max(ct for (_, _, _, ct, _) in stats.values())
+    rows = [(name, (sum(inclusive.get(f, 0.0) for f in add) - sum(inclusive.get(f, 0.0) for f in sub)) / beams)
+            for name, add, sub in STAGES]
+    rows.append(("other (Python, copies, bookkeeping)", total / beams - sum(t for _, t in rows)))
+    for name, seconds in rows:
+        print(f"    {name:<38s} {seconds * 1e3:8.2f} ms/beam {seconds * beams / total:6.1%}"
+              f"   alone: {units / (seconds * beams) if seconds > 0 else np.inf:9.4g} {rate_name}")
+    return rows
 
 
 def tracer_vs_ray_intersect(sonar, pose, directions):
@@ -105,6 +147,8 @@ def main(argv=None) -> int:
            "real sensor", goal=100)
     t_alone, _ = _timed(lambda: [sonar.ping(pose, u) for u in dirs])
     print(f"{'  one ping() call per beam':<34s} {len(dirs) / t_alone:12.4g} pings/s")
+    print("  where the time goes (cProfile of the scan, inclusive times per beam):")
+    profiled = profile(lambda: sonar.scan(pose, dirs), len(dirs), len(dirs), "pings/s")
     # Full-rate reference: every element pair synthesised at 400 kHz; both without noise, so that
     # only the synthesis differs (same rays, same diffuse phases).
     quiet = replace(sonar.config, noise_rms=0.0)
@@ -120,6 +164,9 @@ def main(argv=None) -> int:
     t_frame = time.perf_counter() - t0
     report(f"OFDM frames/s ({len(schedule.directions)} beams)", 1 / t_frame, "frames/s",
            1 / REAL_FRAME_S * 117 / len(schedule.directions), "real sensor (per beam count)", goal=10)
+    print("  where the time goes (cProfile of the frame, inclusive times per beam):")
+    profiled += profile(lambda: ofdm.frame(schedule, lambda t: pose), len(schedule.directions), 1,
+                        "frames/s")
     report_depths(OfdmSonar(fast).frame(schedule, lambda t: pose).depth,
                   OfdmSonar(full).frame(schedule, lambda t: pose).depth)
 
@@ -150,6 +197,7 @@ def main(argv=None) -> int:
         print(f"{'peak memory, one ' + probe:<34s} {peak / 2**20:12.1f} MiB (fresh process)")
         lines.append((probe, peak, peak))
     bad = [name for name, value, ratio in lines if not (np.isfinite(value) and np.isfinite(ratio))]
+    bad += [f"profile: {name}" for name, seconds in profiled if not np.isfinite(seconds)]
     if bad:
         print(f"non-finite output: {', '.join(bad)}", file=sys.stderr)
         return 1

@@ -167,7 +167,10 @@ class EchoProcessor:
         hh, vv = np.meshgrid(h, h, indexing="ij")
         self._ghost_grid = direction_from_fov_angles(hh, vv).reshape(-1, 3)
         self._ghost_operators = {}
-        self._last_spectra = (None, None)
+        # Of the last recording processed: its channel spectra and demodulated looks per
+        # waveform (an OFDM cycle decodes every beam from one recording, and beams
+        # whose codes share a tone share that tone's look).
+        self._recording_cache = (None, {})
         self._band_freq = synthesizer.frequencies[synthesizer.band]  # (nb,) [Hz]
         # W [samples] of :meth:`_delay_and_sum`: the largest receive delay (5), rounded up, + 1.
         self._window_lag = int(np.ceil(
@@ -195,16 +198,28 @@ class EchoProcessor:
         g = self.geometry
         return -(np.asarray(directions, dtype=float) @ (g.rx_positions - g.rx_origin).T) / self.c
 
-    def _spectra(self, recording: Recording) -> np.ndarray:
-        """Analytic spectra of the recording's channels on the band, (N_rx, nb). The last
-        recording's are kept: an OFDM cycle decodes every beam and tone from one recording."""
-        if self._last_spectra[0] is not recording:
-            self._last_spectra = (recording, self.synth.band_spectra(recording.samples))
-        return self._last_spectra[1]
+    def _cached(self, recording: Recording, key, compute):
+        """``compute()`` for ``key``, kept while ``recording`` is the last one processed."""
+        if self._recording_cache[0] is not recording:
+            self._recording_cache = (recording, {})
+        cache = self._recording_cache[1]
+        if key not in cache:
+            cache[key] = compute()
+        return cache[key]
 
     def compressed_spectra(self, recording: Recording, waveform=None) -> np.ndarray:
         """Matched-filtered analytic spectra of all channels on the band, (N_rx, nb)."""
-        return self._spectra(recording) * self._matched_filter(waveform)[0]
+        spectra = self._cached(recording, "spectra",
+                               lambda: self.synth.band_spectra(recording.samples))
+        return spectra * self._matched_filter(waveform)[0]
+
+    def look(self, recording: Recording, waveform=None) -> tuple[np.ndarray, float]:
+        """(analytic channels (N_rx, N) matched-filtered for ``waveform`` and demodulated at its
+        carrier, carrier [Hz]): one look of the side-lobe check and the arrival direction."""
+        carrier = (self.synth.pulse if waveform is None else waveform).frequency
+        return self._cached(recording, ("look", waveform), lambda: (self._demodulated(
+            self.compressed_spectra(recording, waveform), recording.samples.shape[1],
+            recording.start_time, carrier), carrier))
 
     def beamform(self, spectra: np.ndarray, n_samples: int, direction) -> np.ndarray:
         """Delay-and-sum of compressed spectra (N_rx, nb) towards ``direction`` (3,): analytic
@@ -313,17 +328,16 @@ class EchoProcessor:
             transmit_time: when the beam was fired, on the recording's clock [s].
             max_path_length: ignore echoes with a longer path [m] (e.g. the listening window).
         """
-        spectra = self.compressed_spectra(recording, waveform)
         n = recording.samples.shape[1]
         u = np.asarray(direction, dtype=float)
-        envelope = np.abs(self.beamform(spectra, n, u))
+        envelope = np.abs(self.beamform(self.compressed_spectra(recording, waveform), n, u))
+        # Each part of a code is a tone: its own envelope and an exact carrier for the check.
         parts = getattr(waveform, "parts", ())
-        if parts:  # each part is a tone: its own envelope and an exact carrier for the check
-            looks = [(self.compressed_spectra(recording, p), p.frequency) for p in parts]
-            part_envelopes = [np.abs(self.beamform(x, n, u)) for x, _ in looks]
-        else:
-            looks = [(spectra, (self.synth.pulse if waveform is None else waveform).frequency)]
-            part_envelopes = ()
+        part_envelopes = [np.abs(self.beamform(self.compressed_spectra(recording, p), n, u))
+                          for p in parts]
+        s = self.settings
+        looks = [self.look(recording, p) for p in (parts or [waveform])] \
+            if s.ghost_margin > 0 or s.arrival_step > 0 else []
         return envelope, self.detect(envelope, recording.start_time, u, direct_envelope, looks,
                                      waveform, transmit_time, max_path_length, part_envelopes)
 
@@ -338,9 +352,10 @@ class EchoProcessor:
             start_time: time of its first sample [s].
             direction: (3,) beam direction in the sensor frame.
             direct_envelope: (N,) envelope of the direct path alone, for blanking (optional).
-            looks: (compressed channel spectra (N_rx, nb) on the band, carrier [Hz]) pairs for
-                the side-lobe check, which a candidate must pass in every look (optional; without
-                them every candidate is taken to arrive along the beam).
+            looks: (demodulated channels (N_rx, N), carrier [Hz]) pairs (:meth:`look`) for the
+                side-lobe check, which a candidate must pass in every look, and the arrival
+                direction (optional; without them every candidate is taken to arrive along the
+                beam).
             waveform: the beam's drive waveform (sets the noise level).
             transmit_time: when the beam was fired [s]; times of arrival are counted from it.
             max_path_length: ignore echoes with a longer path [m].
@@ -378,8 +393,6 @@ class EchoProcessor:
         if len(candidates) == 0:
             return Detection(False, np.nan, np.nan, np.nan, nan3, nan3, amplitude, level)
         check, locate = s.ghost_margin > 0, s.arrival_step > 0
-        looks = [(self._demodulated(spectra, n, start_time, carrier), carrier)
-                 for spectra, carrier in looks] if check or locate else []
         if looks and check:  # a candidate must pass in every look
             candidates = candidates[~self._arrives_off_beam(looks, candidates, u)][:1]
         if len(candidates) == 0:
