@@ -90,8 +90,12 @@ def _spread_kernel():
                 value_re = value_re + slope_re * x - slope_im * omega
                 value_im = value_im + slope_im * x + slope_re * omega
             flat = UInt32(row + (base + (k + n_grid)) % n_grid)
-            dr.scatter_reduce(dr.ReduceOp.Add, acc[0], Int64(dr.round(weight * value_re)), flat)
-            dr.scatter_reduce(dr.ReduceOp.Add, acc[1], Int64(dr.round(weight * value_im)), flat)
+            # Plain atomic adds: neighbouring paths (a patch's receive elements) land in
+            # different rows, so the packets rarely conflict and the default for grids of this
+            # size (a per-core copy of the grid, merged after) only costs: 35 % slower.
+            for part, value in zip(acc, (value_re, value_im)):
+                dr.scatter_reduce(dr.ReduceOp.Add, part, Int64(dr.round(weight * value)), flat,
+                                  mode=dr.ReduceMode.Direct)
         return acc
 
     # One recording per grid size and kernel shape (a few per synthesizer; sessions that build
