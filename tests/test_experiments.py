@@ -59,6 +59,8 @@ def test_speed_accuracy_quick(tmp_path):
     assert [r["level"] for r in rows] == ["draft", "standard", "fine", "paper model"]
     assert all(float(r["ms_per_ping"]) > 0 for r in rows)
     assert float(rows[2]["median_depth_diff_mm"]) == 0.0  # the reference against itself
+    for r in rows:  # against the ground truth: measured 4-11 mm
+        assert 0 < float(r["median_surface_distance_mm"]) < 30
     assert (tmp_path / "speed_accuracy.png").stat().st_size > 10_000
 
 
