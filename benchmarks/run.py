@@ -171,7 +171,7 @@ def main(argv=None) -> int:
                   OfdmSonar(full).frame(schedule, lambda t: pose).depth)
 
     # Fast synthesis vs the direct summation of (1)(3) on the same paths (paper model, ideal
-    # transducers, 400 kHz: both agree to 1e-4 of the peak).
+    # transducers, 400 kHz: both agree to ~2e-4 of the peak).
     cfg = mitsonar.SonarConfig(trace=mitsonar.TraceSettings(model="paper"), transducer_response=False,
                                sample_rate=400e3, noise_rms=0.0, max_range=3.0, baseband=False,
                                band_floor=1e-5)
