@@ -171,6 +171,7 @@ class EchoProcessor:
         # waveform (an OFDM cycle decodes every beam from one recording, and beams
         # whose codes share a tone share that tone's look).
         self._recording_cache = (None, {})
+        self._steering = (None, None)  # (direction, (N_rx, nb) phasors) of the last beam formed
         self._band_freq = synthesizer.frequencies[synthesizer.band]  # (nb,) [Hz]
         # W [samples] of :meth:`_delay_and_sum`: the largest receive delay (5), rounded up, + 1.
         self._window_lag = int(np.ceil(
@@ -224,9 +225,11 @@ class EchoProcessor:
     def beamform(self, spectra: np.ndarray, n_samples: int, direction) -> np.ndarray:
         """Delay-and-sum of compressed spectra (N_rx, nb) towards ``direction`` (3,): analytic
         (N,) [Pa]."""
-        delays = self.receive_delays(direction)
-        steer = phasor(2 * np.pi * self._band_freq[None, :] * delays[:, None])  # < 2e2 rad
-        return self.synth.to_analytic((spectra * steer).mean(axis=0))[:n_samples]
+        key = tuple(np.asarray(direction, dtype=float))
+        if self._steering[0] != key:  # a beam is formed several times (code, tones, blanking)
+            delays = self.receive_delays(direction)
+            self._steering = (key, phasor(2 * np.pi * self._band_freq[None, :] * delays[:, None]))
+        return self.synth.to_analytic((spectra * self._steering[1]).mean(axis=0))[:n_samples]
 
     def envelope(self, recording: Recording, direction, waveform=None) -> np.ndarray:
         """Envelope (N,) [Pa] of the beamformed, matched-filtered recording."""
