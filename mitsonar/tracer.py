@@ -46,7 +46,7 @@ from .array import APERTURE, ArrayGeometry
 from .frames import Pose, orthonormal_basis
 from .element_factors import element_factors
 from .hitpaths import HitPaths
-from .jit import rays
+from .jit import rays, to_jit
 from .medium import Medium
 from .scene import AcousticScene, mitsuba
 from .signals import Pulse
@@ -269,22 +269,40 @@ class AcousticTracer:
                 break
         return t, p, nrm, mat, shape
 
-    def _visible(self, points, targets):
-        """(len(points),) True where the segment point -> target (world) is unobstructed.
+    def _shadow_rays(self, starts, rotation, translation):
+        """(H x N_rx,) True where the segment from start h (world, (H, 3)) to receive element j
+        of hit h's pose (rotation (H, 3, 3), translation (H, 3)) is unobstructed.
 
-        One any-hit test per segment; only the blocked ones, if the scene has acoustically
-        transparent surfaces, are traced again through them."""
-        seg = targets - points
-        dist = _length(seg)
-        d = seg / dist[:, None]
-        start = points + _EPS * d
-        blocked = self.scene.scene.ray_test(rays(start, d, dist - 2 * _EPS))
-        dr.eval(blocked)
+        The segments are built in Dr.Jit from the H starts and N_rx elements (no (H x N_rx, 3)
+        NumPy temporaries, which cost several times the tests themselves); one any-hit test per
+        segment, and only the blocked ones, if the scene has acoustically transparent surfaces,
+        traced again through them."""
+        from drjit.llvm import Float64, UInt32
+
+        mi = self.mi
+        rx = self.geometry.rx_positions
+        n_rx = len(rx)
+        index = dr.arange(UInt32, len(starts) * n_rx)
+        hit, element = index // n_rx, index % n_rx
+        per_hit = lambda column: dr.gather(Float64, to_jit(Float64, column), hit)  # noqa: E731
+        elem = [dr.gather(Float64, to_jit(Float64, rx[:, k]), element) for k in range(3)]
+        seg = [per_hit(translation[:, a] - starts[:, a])
+               + sum(per_hit(rotation[:, a, b]) * elem[b] for b in range(3)) for a in range(3)]
+        dist = dr.sqrt(sum(c * c for c in seg))
+        d = [c / dist for c in seg]
+        origin = [per_hit(starts[:, a]) + _EPS * d[a] for a in range(3)]
+        ray = mi.Ray3f(mi.Point3f(*(mi.Float(c) for c in origin)), mi.Vector3f(*(mi.Float(c) for c in d)),
+                       mi.Float(dist - 2 * _EPS), mi.Float(0.0), [])
+        blocked = self.scene.scene.ray_test(ray)
+        if not self._transparent.any():
+            dr.eval(blocked)
+            return ~np.asarray(blocked, dtype=bool)
+        dr.eval(blocked, origin, d, dist)
         visible = ~np.asarray(blocked, dtype=bool)
-        recheck = np.flatnonzero(~visible) if self._transparent.any() else []
+        recheck = np.flatnonzero(~visible)
         if len(recheck):
-            visible[recheck] = self._intersect(start[recheck], d[recheck])[0] \
-                >= dist[recheck] - 2 * _EPS
+            o, v = (np.stack([np.asarray(c)[recheck] for c in x], axis=1) for x in (origin, d))
+            visible[recheck] = self._intersect(o, v)[0] >= np.asarray(dist)[recheck] - 2 * _EPS
         return visible
 
     # ---- physics ---------------------------------------------------------------------------
@@ -489,9 +507,7 @@ class AcousticTracer:
         if not self.settings.shadow_rays or len(points) == 0:
             return np.ones((len(points), len(rx)))
         start = _rotate(rotation, points + _EPS * normals) + translation  # (H, 3) world
-        ends = np.matmul(rx, rotation.transpose(0, 2, 1)) + translation[:, None, :]  # (H, N_rx, 3)
-        vis = self._visible(np.repeat(start, len(rx), axis=0), ends.reshape(-1, 3))
-        return vis.reshape(len(points), len(rx)).astype(float)
+        return self._shadow_rays(start, rotation, translation).reshape(len(points), len(rx)).astype(float)
 
     def _second_bounce(self, rotation, translation, beam, x1, n1, mats1, d1, dd1, dd2, t1, taper,
                        steering, rngs) -> list[tuple[np.ndarray, HitPaths]]:

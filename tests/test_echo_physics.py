@@ -120,6 +120,29 @@ def test_acoustically_transparent_sheet_changes_nothing(scene_file):
     assert b.detection.detected and abs(b.detection.depth - a.detection.depth) < 1e-5  # [m]
 
 
+def test_shadow_rays_against_segment_plane_crossings(scene_file):
+    """Visibility of every receive element from points on a far wall, with an opaque screen
+    (x < 0, world) at z = 0.5 m in between, from a moved and turned sensor: the segment to
+    element j is blocked exactly where it crosses the screen (analytic crossing; segments within
+    1 mm of the screen's edge are left out, single precision)."""
+    sonar = mitsonar.Sonar(scene_file("screen", material_xml("m", preset="concrete"),
+                                      rectangle_xml("m", (-5.0, 0, 0.5), size=(10, 10))), QUIET)
+    pose = mitsonar.Pose.sensor_on_robot(0.0, 0.0, 0.0)
+    pose = mitsonar.Pose(pose.rotation @ mitsonar.Pose.planar(0, 0, 0.3).rotation, [0.05, -0.02, 0.0])
+    rng = np.random.default_rng(2)
+    starts = np.column_stack([rng.uniform(-0.3, 0.3, 400), rng.uniform(-0.3, 0.3, 400),
+                              np.full(400, 2.0)])
+    n_h = len(starts)
+    rotation, translation = np.repeat(pose.rotation[None], n_h, 0), np.repeat(pose.translation[None], n_h, 0)
+    visible = sonar.tracer._shadow_rays(starts, rotation, translation).reshape(n_h, -1)
+    ends = pose.transform_points(sonar.config.geometry.rx_positions)  # (N_rx, 3) world
+    t = (0.5 - starts[:, None, 2]) / (ends[None, :, 2] - starts[:, None, 2])
+    crossing_x = starts[:, None, 0] + t * (ends[None, :, 0] - starts[:, None, 0])
+    clear = np.abs(crossing_x) > 1e-3
+    assert clear.mean() > 0.9 and 0.2 < (crossing_x < 0).mean() < 0.8  # both cases, many times
+    np.testing.assert_array_equal(visible[clear], (crossing_x >= 0)[clear])
+
+
 @pytest.mark.slow
 def test_beam_steering_finds_small_target_and_matches_main_lobe(scene_file):
     """A 10 cm sphere at 4 m, 8 deg right and 4 deg up: scan horizontal and vertical cuts."""
