@@ -369,7 +369,7 @@ def _plane_stats(points, viewpoints, settings: SurfelSettings):
     return normal, centroid, np.arctan2(s, np.sqrt(np.maximum(w[:, 1], 0)))
 
 
-def _links(points, viewpoints, settings: SurfelSettings) -> tuple[np.ndarray, np.ndarray]:
+def _links(points, viewpoints, settings: SurfelSettings, stats=None) -> tuple[np.ndarray, np.ndarray]:
     """Index pairs (i < j) of point sets (u, m, 3) [m] (NaN-padded, seen from viewpoints
     (u, m, 3)) that lie on one plane: their normals agree within the coarse gate
     ``merge_angle`` + ``merge_sigmas`` x the combined standard error of the two normals, and
@@ -379,8 +379,9 @@ def _links(points, viewpoints, settings: SurfelSettings) -> tuple[np.ndarray, np
     Sets whose normal's standard error exceeds ``max_link_error`` link nothing: such a set (a
     small surfel far away) fits several planes at once and would chain them into one group (on
     room_glass a 13 cm surfel at 3.2 m, normal error 28 deg, joined both windows and the
-    floor). It can still join the group whose plane fits it when the groups are refitted."""
-    normal, _, error = _plane_stats(points, viewpoints, settings)
+    floor). It can still join the group whose plane fits it when the groups are refitted.
+    ``stats``: :func:`_plane_stats` of the sets, if the caller has them."""
+    normal, _, error = stats or _plane_stats(points, viewpoints, settings)
     ok = np.all(np.isfinite(points), axis=-1)
     q = np.where(ok[..., None], points - np.nanmean(points.reshape(-1, 3), axis=0), 0.0)
     count = ok.sum(axis=1).astype(float)
@@ -476,8 +477,9 @@ def group_surfels(points, viewpoints, settings: SurfelSettings = SurfelSettings(
     if extra is not None:
         p = np.concatenate([p, np.asarray(extra, dtype=float).reshape(len(p), -1, 3)], axis=1)
     seen = np.broadcast_to(view[:, None], p.shape)
-    label = _components(len(p), *_links(p, seen, settings))
-    surfel_normals, _, own_error = _plane_stats(p, seen, settings)
+    stats = _plane_stats(p, seen, settings)
+    surfel_normals, _, own_error = stats
+    label = _components(len(p), *_links(p, seen, settings, stats))
     z = settings.merge_sigmas
     for iteration in range(1, settings.max_iterations + 1):
         gn, gd, _, ge, _, _ = _fit_groups(p, view, label, settings)
