@@ -266,7 +266,7 @@ class EchoProcessor:
         frac = q - i0
         n_rx = delays.shape[1]
         cols = np.arange(n_rx)[None, :] * (2 * lag + 2) + lag + i0
-        phase = np.exp(2j * np.pi * carrier * delays)
+        phase = phasor(2 * np.pi * carrier * delays)  # < 30 rad: phase error < 2e-6 rad
         # Built directly in CSR form: row d holds (1 - frac) and frac at columns c, c + 1 per channel.
         data = np.stack([(1 - frac) * phase, frac * phase], axis=-1).reshape(len(delays), -1)
         columns = np.stack([cols, cols + 1], axis=-1).reshape(len(delays), -1)
