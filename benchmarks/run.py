@@ -48,10 +48,12 @@ STAGES = (
     ("shadow rays", [("tracer.py", "_visibility")], []),
     ("element-factor kernel", [("element_factors.py", "element_factors")], []),
     ("rest of the trace (per-hit NumPy)", [("tracer.py", "trace_many")],
-     [("tracer.py", "_cast"), ("tracer.py", "_visibility"), ("element_factors.py", "element_factors")]),
+     [("tracer.py", "_cast"), ("tracer.py", "_visibility"),
+      ("element_factors.py", "element_factors")]),
     ("narrow-band merge kernel", [("hitpaths.py", "narrowband_many")], []),
     ("gridding kernel", [("synthesis.py", "impulse_grid")], []),
-    ("synthesis FFTs and filters", [("synthesis.py", "groups_spectrum"), ("synthesis.py", "to_samples")],
+    ("synthesis FFTs and filters",
+     [("synthesis.py", "groups_spectrum"), ("synthesis.py", "to_samples")],
      [("synthesis.py", "impulse_grid")]),
     ("receiver noise", [("synthesis.py", "recording")], []),
     ("receive chain (beamforming to depth)", [("processing.py", "process"),
@@ -72,8 +74,8 @@ def profile(fn, beams: int, units: int, rate_name: str) -> list:
         key = (Path(file).name, name)
         inclusive[key] = inclusive.get(key, 0.0) + ct
     total = max(ct for (_, _, _, ct, _) in stats.values())
-    rows = [(name, (sum(inclusive.get(f, 0.0) for f in add) - sum(inclusive.get(f, 0.0) for f in sub)) / beams)
-            for name, add, sub in STAGES]
+    total_of = lambda functions: sum(inclusive.get(f, 0.0) for f in functions)  # noqa: E731
+    rows = [(name, (total_of(add) - total_of(sub)) / beams) for name, add, sub in STAGES]
     rows.append(("other (Python, copies, bookkeeping)", total / beams - sum(t for _, t in rows)))
     for name, seconds in rows:
         print(f"    {name:<38s} {seconds * 1e3:8.2f} ms/beam {seconds * beams / total:6.1%}"

@@ -38,7 +38,8 @@ def runs_for_scene(scene_name: str, step_deg: float, n_poses: int, levels) -> di
     directions = mitsonar.ArrayGeometry().fov_grid(np.radians(step_deg))
     config = mitsonar.SonarConfig()
     mesh = scene_mesh(scene)  # the ground truth
-    runs = {name: ping_at(scene, config, PRESETS[name], poses, directions, mesh=mesh) for name in levels}
+    runs = {name: ping_at(scene, config, PRESETS[name], poses, directions, mesh=mesh)
+            for name in levels}
     runs["paper model"] = ping_at(scene, mitsonar.SonarConfig.preset("paper"), PRESETS["standard"],
                                   poses, directions, mesh=mesh)
     return runs

@@ -369,7 +369,8 @@ def _plane_stats(points, viewpoints, settings: SurfelSettings):
     return normal, centroid, np.arctan2(s, np.sqrt(np.maximum(w[:, 1], 0)))
 
 
-def _links(points, viewpoints, settings: SurfelSettings, stats=None) -> tuple[np.ndarray, np.ndarray]:
+def _links(points, viewpoints, settings: SurfelSettings,
+           stats=None) -> tuple[np.ndarray, np.ndarray]:
     """Index pairs (i < j) of point sets (u, m, 3) [m] (NaN-padded, seen from viewpoints
     (u, m, 3)) that lie on one plane: their normals agree within the coarse gate
     ``merge_angle`` + ``merge_sigmas`` x the combined standard error of the two normals, and

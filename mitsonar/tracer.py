@@ -291,8 +291,9 @@ class AcousticTracer:
         dist = dr.sqrt(sum(c * c for c in seg))
         d = [c / dist for c in seg]
         origin = [per_hit(starts[:, a]) + _EPS * d[a] for a in range(3)]
-        ray = mi.Ray3f(mi.Point3f(*(mi.Float(c) for c in origin)), mi.Vector3f(*(mi.Float(c) for c in d)),
-                       mi.Float(dist - 2 * _EPS), mi.Float(0.0), [])
+        ray = mi.Ray3f(mi.Point3f(*(mi.Float(c) for c in origin)),
+                       mi.Vector3f(*(mi.Float(c) for c in d)), mi.Float(dist - 2 * _EPS),
+                       mi.Float(0.0), [])
         blocked = self.scene.scene.ray_test(ray)
         if not self._transparent.any():
             dr.eval(blocked)
@@ -507,7 +508,8 @@ class AcousticTracer:
         if not self.settings.shadow_rays or len(points) == 0:
             return np.ones((len(points), len(rx)))
         start = _rotate(rotation, points + _EPS * normals) + translation  # (H, 3) world
-        return self._shadow_rays(start, rotation, translation).reshape(len(points), len(rx)).astype(float)
+        visible = self._shadow_rays(start, rotation, translation)
+        return visible.reshape(len(points), len(rx)).astype(float)
 
     def _second_bounce(self, rotation, translation, beam, x1, n1, mats1, d1, dd1, dd2, t1, taper,
                        steering, rngs) -> list[tuple[np.ndarray, HitPaths]]:

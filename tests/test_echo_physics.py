@@ -128,12 +128,14 @@ def test_shadow_rays_against_segment_plane_crossings(scene_file):
     sonar = mitsonar.Sonar(scene_file("screen", material_xml("m", preset="concrete"),
                                       rectangle_xml("m", (-5.0, 0, 0.5), size=(10, 10))), QUIET)
     pose = mitsonar.Pose.sensor_on_robot(0.0, 0.0, 0.0)
-    pose = mitsonar.Pose(pose.rotation @ mitsonar.Pose.planar(0, 0, 0.3).rotation, [0.05, -0.02, 0.0])
+    pose = mitsonar.Pose(pose.rotation @ mitsonar.Pose.planar(0, 0, 0.3).rotation,
+                         [0.05, -0.02, 0.0])
     rng = np.random.default_rng(2)
     starts = np.column_stack([rng.uniform(-0.3, 0.3, 400), rng.uniform(-0.3, 0.3, 400),
                               np.full(400, 2.0)])
     n_h = len(starts)
-    rotation, translation = np.repeat(pose.rotation[None], n_h, 0), np.repeat(pose.translation[None], n_h, 0)
+    rotation = np.repeat(pose.rotation[None], n_h, 0)
+    translation = np.repeat(pose.translation[None], n_h, 0)
     visible = sonar.tracer._shadow_rays(starts, rotation, translation).reshape(n_h, -1)
     ends = pose.transform_points(sonar.config.geometry.rx_positions)  # (N_rx, 3) world
     t = (0.5 - starts[:, None, 2]) / (ends[None, :, 2] - starts[:, None, 2])
