@@ -142,7 +142,7 @@ class FidelityRun:
         if abs(self.detected_fraction - reference.detected_fraction) > max_flips:
             return False
         ours, theirs = self.surface_error()[0], reference.surface_error()[0]
-        if np.isnan(theirs):  # neither detects anything (the fractions agree)
+        if np.isnan(theirs):  # the reference detects nothing: the fractions decide
             return True
         return bool(ours <= theirs + tolerance)
 
@@ -162,10 +162,10 @@ def ping_at(scene, config: SonarConfig, level: Fidelity, poses, directions, seed
     scans = [sonar.scan(pose, directions, seed=seed) for pose in poses]
     seconds = time.perf_counter() - start
     depth = np.concatenate([scan.depth for scan in scans])
-    points = np.concatenate([scan.pose.transform_points(scan.points_sensor) for scan in scans])
     distance = np.full(len(depth), np.nan)
-    detected = np.isfinite(depth)
-    distance[detected] = point_to_mesh(points[detected], mesh or scene_mesh(sonar.scene))[0]
+    distance[np.concatenate([scan.detected for scan in scans])] = point_to_mesh(
+        np.concatenate([scan.points_world for scan in scans]),
+        scene_mesh(sonar.scene) if mesh is None else mesh)[0]
     return FidelityRun(level, depth, seconds / len(depth), distance)
 
 

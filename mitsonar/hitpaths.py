@@ -194,8 +194,8 @@ def _merge_kernel():
 
     Arguments: thread indices 0 .. H x N_rx / g - 1, the 8 transmit factors (H x N_tx,) and 7
     receive factors (H x N_rx,) as listed there, the tones' -2 pi f [rad/s], N_tx, N_rx, the
-    group g of receive elements per thread. Returns per receive element of the group a tuple: the mean delay
-    offset [s], then (a_re, a_im, b_re, b_im) per tone, each (H x N_rx / g,).
+    group g of receive elements per thread. Returns per receive element of the group a tuple:
+    the mean delay offset [s], then (a_re, a_im, b_re, b_im) per tone, each (H x N_rx / g,).
     """
     from drjit.llvm import Float32
 

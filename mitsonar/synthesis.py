@@ -53,8 +53,9 @@ def _spread_kernel():
     Arguments: the flat grid's size, positions (M,) [samples], row offsets (M,) into the flat
     grid, (re, im) gains, None or (re, im, carrier - f_d [rad/s]) of the first-order terms, the
     shift f_d [cycles per sample], the grid's period n_grid [samples], half_width [taps],
-    1/sigma^2, fs/sigma^2. Returns the (re, im) Int64 grids. (Each grid size is a separate recording: the grids are made inside, as
-    scatter targets passed in would be replayed at the recorded size.)
+    1/sigma^2, fs/sigma^2. Returns the (re, im) Int64 grids. (Each grid size is a separate
+    recording: the grids are made inside, as scatter targets passed in would be replayed at the
+    recorded size.)
     """
     import drjit as dr
     from drjit.llvm import Float64, Int64, UInt32

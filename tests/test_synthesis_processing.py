@@ -28,7 +28,7 @@ def test_fast_synthesis_equals_direct_summation(wall_path):
     fast = sonar.synthesizer.synthesize(paths, 25)
     oracle = direct_summation(paths, cfg.pulse, 25, fast.times)
     error = np.abs(fast.samples - oracle).max() / np.abs(oracle).max()
-    assert error <= 1e-3, error  # measured 8e-5
+    assert error <= 3e-4, error  # measured 9.3e-5
 
 
 def test_first_order_terms_match_their_spectrum(wall_path):
@@ -191,7 +191,7 @@ def test_baseband_recording_equals_direct_summation(wall_path):
     oracle = direct_summation(paths, cfg.pulse, 25, t)
     pressure = (fast.samples * np.exp(2j * np.pi * fast.carrier * t)).real
     error = np.abs(pressure - oracle).max() / np.abs(oracle).max()
-    assert error <= 1e-3, error  # measured 8e-5, as real recordings at 400 kHz
+    assert error <= 3e-4, error  # measured 8.0e-5, as real recordings at 400 kHz
 
 
 @pytest.mark.parametrize("azimuth_deg, elevation_deg", [(0.0, 0.0), (15.0, 0.0), (20.0, 10.0)])
