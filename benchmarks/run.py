@@ -22,11 +22,11 @@ from pathlib import Path
 import numpy as np
 
 import mitsonar
-from mitsonar.fidelity import fidelity
+from mitsonar.evaluation.fidelity import fidelity
 from mitsonar.jit import rays
-from mitsonar.ofdm import OfdmSonar
-from mitsonar.reference import direct_summation
-from mitsonar.sonar import TRACE_BATCH
+from mitsonar.sensors.ofdm_sonar import OfdmSonar
+from mitsonar.evaluation.reference import direct_summation
+from mitsonar.sensors.sonar import TRACE_BATCH
 
 REAL_PING_S = 0.030  # one ping listens ~30 ms for 5 m (the paper)
 REAL_FRAME_S = 0.2085  # one 13 x 9 OFDM frame (the paper)
@@ -56,8 +56,8 @@ STAGES = (
      [("synthesis.py", "groups_spectrum"), ("synthesis.py", "to_samples")],
      [("synthesis.py", "impulse_grid")]),
     ("receiver noise", [("synthesis.py", "recording")], []),
-    ("receive chain (beamforming to depth)", [("processing.py", "process"),
-                                              ("processing.py", "noiseless_envelope")], []),
+    ("receive chain (beamforming to depth)", [("receiver.py", "process"),
+                                              ("receiver.py", "noiseless_envelope")], []),
 )
 
 
@@ -191,7 +191,7 @@ def main(argv=None) -> int:
     t_slow = time.perf_counter() - t0
     error = np.abs(fast.samples - slow).max() / np.abs(slow).max()
     depth_fast = paper.processor.process(fast, u)[1].depth
-    from mitsonar.synthesis import Recording
+    from mitsonar.signal.synthesis import Recording
 
     depth_slow = paper.processor.process(Recording(slow, fast.sample_rate, fast.start_time), u)[1].depth
     report("fast synthesis speed-up", t_slow / t_fast, "x", 1.0, "direct (1)(3) summation", goal=100)
@@ -229,7 +229,7 @@ def _memory_probe(scene: str, what: str) -> int:
     else:
         import tempfile
 
-        from mitsonar.dataset import DatasetSpec, render_dataset
+        from mitsonar.data.dataset import DatasetSpec, render_dataset
 
         with tempfile.TemporaryDirectory() as tmp:
             render_dataset(DatasetSpec(scene, max_samples=1), Path(tmp) / "ds")

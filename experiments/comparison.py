@@ -16,7 +16,7 @@ OFDM tones span 32-48 kHz), a 5 deg beam grid (the paper's 13 x 9 beams per fram
 voxels; each beam is registered with its own pose (``RepeatedMapSpec`` default; the paper's one
 pose per frame smears what the robot passes while it drives or turns).
 
-Scoring (:func:`mitsonar.metrics.evaluate`, 2 cm threshold). Every cloud is first thinned to one
+Scoring (:func:`mitsonar.evaluation.metrics.evaluate`, 2 cm threshold). Every cloud is first thinned to one
 point per 1 cm voxel, the ground truth's resolution (the paper samples its surfel map at 1 cm;
 without this, the depth camera's overlapping frames would outnumber everything else): a seeded
 random point of each voxel, not the mean, so noise is not averaged away. Completeness counts the
@@ -44,16 +44,16 @@ from pathlib import Path
 import numpy as np
 
 import mitsonar
-from mitsonar.baselines import DepthCamera, Lidar, map_trajectory
-from mitsonar.io import write_ply, write_table
-from mitsonar.mapping import RepeatedMapSpec, map_repeated
-from mitsonar.metrics import (DEFAULT_THRESHOLD, Evaluation, evaluate, sample_surface,
+from mitsonar.sensors.baselines import DepthCamera, Lidar, map_trajectory
+from mitsonar.data.io import write_ply, write_table
+from mitsonar.recon.repeated import RepeatedMapSpec, map_repeated
+from mitsonar.evaluation.metrics import (DEFAULT_THRESHOLD, Evaluation, evaluate, sample_surface,
                               save_error_figure, visible_from)
 from mitsonar.plots import _pyplot, save_png
-from mitsonar.scene import scene_mesh
-from mitsonar.surfels import SurfelSettings, map_surfels
-from mitsonar.trajectory import sensor_poses
-from mitsonar.voxelmap import VoxelMapSettings
+from mitsonar.scene.loading import scene_mesh
+from mitsonar.recon.surfels import SurfelSettings, map_surfels
+from mitsonar.sensors.trajectory import sensor_poses
+from mitsonar.recon.voxelmap import VoxelMapSettings
 
 SCENES = Path(__file__).resolve().parents[1] / "scenes"
 #: The sonar's mode per scene, as in the paper.

@@ -23,8 +23,8 @@ from pathlib import Path
 import numpy as np
 
 import mitsonar
-from mitsonar.io import atomic_path, write_table
-from mitsonar.materials import preset
+from mitsonar.data.io import atomic_path, write_table
+from mitsonar.physics.materials import preset
 from mitsonar.plots import _pyplot, save_png
 
 BROADSIDE = np.array([0.0, 0.0, 1.0])

@@ -22,10 +22,10 @@ from pathlib import Path
 import numpy as np
 
 import mitsonar
-from mitsonar.io import write_table
-from mitsonar.mapping import REGISTRATIONS, RepeatedMapSpec, build_voxel_map, scan_repeated
+from mitsonar.data.io import write_table
+from mitsonar.recon.repeated import REGISTRATIONS, RepeatedMapSpec, build_voxel_map, scan_repeated
 from mitsonar.plots import _pyplot, save_png
-from mitsonar.voxelmap import VoxelMapSettings
+from mitsonar.recon.voxelmap import VoxelMapSettings
 
 #: World x of the wall [m]; the robot starts at x = 0 facing +x (sensor head at x = 0.1).
 WALL_X = 3.5

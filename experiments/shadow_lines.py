@@ -21,7 +21,7 @@ both sides is removed with the surfels built on it) and without
 * planes: plane groups grown in the images (3 is right; a lone surfel whose normal is poorly
   determined is not grown); normal error: the largest angle between a true face's normal and
   its plane's [deg]; corner error: where the three planes meet, from the true corner;
-* the map (sampled every 1 cm) scored with :mod:`mitsonar.metrics`: accuracy within 2 cm and
+* the map (sampled every 1 cm) scored with :mod:`mitsonar.evaluation.metrics`: accuracy within 2 cm and
   completeness of the faces in view (in line of sight and in the array's field of view of a pose,
   within the sonar's range).
 
@@ -43,12 +43,12 @@ from pathlib import Path
 import numpy as np
 
 import mitsonar
-from mitsonar.beampattern import in_fov
-from mitsonar.io import write_table
-from mitsonar.metrics import evaluate, sample_surface, visible_from
+from mitsonar.physics.beampattern import in_fov
+from mitsonar.data.io import write_table
+from mitsonar.evaluation.metrics import evaluate, sample_surface, visible_from
 from mitsonar.plots import _pyplot, save_png
-from mitsonar.scene import material_xml, scene_mesh, spanned_rectangle_xml
-from mitsonar.surfels import SurfelSettings, map_surfels, plane_colours, tone_map
+from mitsonar.scene.loading import material_xml, scene_mesh, spanned_rectangle_xml
+from mitsonar.recon.surfels import SurfelSettings, map_surfels, plane_colours, tone_map
 
 CREASE = np.array([2.0, 2.0, 0.0])  # where the two walls and the floor meet [m]
 #: True faces: name -> (unit normal towards the room, offset d of n . x = d [m]).

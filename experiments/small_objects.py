@@ -21,7 +21,7 @@ LiDAR's 2 deg ring spacing), so the object falls anywhere between beams. Per tri
   the wall behind it, the wall's echo often wins;
 * LiDAR: one revolution; depth camera: one frame (both from the same robot pose).
 
-Scores (:mod:`mitsonar.metrics` conventions, 2 cm threshold). Object points are the points whose
+Scores (:mod:`mitsonar.evaluation.metrics` conventions, 2 cm threshold). Object points are the points whose
 nearest scene surface is the object. Detection rate: fraction of trials with a point within 5 cm
 of the object. Accuracy: fraction of the object points within 2 cm, and their median distance,
 pooled over the trials. Completeness: fraction of the object's surface (sampled every 5 mm) in
@@ -44,12 +44,12 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 import mitsonar
-from mitsonar.baselines import DepthCamera, Lidar
+from mitsonar.sensors.baselines import DepthCamera, Lidar
 from mitsonar.frames import SENSOR_MOUNT_TRANSLATION, Pose
-from mitsonar.io import write_table
-from mitsonar.metrics import DEFAULT_THRESHOLD, point_to_mesh, sample_surface, visible_from
+from mitsonar.data.io import write_table
+from mitsonar.evaluation.metrics import DEFAULT_THRESHOLD, point_to_mesh, sample_surface, visible_from
 from mitsonar.plots import _pyplot, save_png
-from mitsonar.scene import scene_mesh
+from mitsonar.scene.loading import scene_mesh
 
 #: Acoustic preset of each shape.
 SHAPES = {"box": "wood", "bottle": "wood", "pole": "metal"}

@@ -1,4 +1,4 @@
-"""Speed against accuracy of the fidelity presets (mitsonar.fidelity) on the shipped scenes.
+"""Speed against accuracy of the fidelity presets (mitsonar.evaluation.fidelity) on the shipped scenes.
 
 For each scene, the beams of a field-of-view grid are pinged from a few poses along the scene's
 trajectory at every preset (plus the paper's 25-reflector model). Accuracy is the depth
@@ -20,11 +20,11 @@ from pathlib import Path
 import numpy as np
 
 import mitsonar
-from mitsonar.fidelity import PRESETS, FidelityRun, ping_at
-from mitsonar.io import write_table
+from mitsonar.evaluation.fidelity import PRESETS, FidelityRun, ping_at
+from mitsonar.data.io import write_table
 from mitsonar.plots import _pyplot, save_png
-from mitsonar.scene import load_scene, scene_mesh
-from mitsonar.trajectory import sensor_poses
+from mitsonar.scene.loading import load_scene, scene_mesh
+from mitsonar.sensors.trajectory import sensor_poses
 
 SCENES = Path(__file__).resolve().parents[1] / "scenes"
 

@@ -18,9 +18,9 @@ from pathlib import Path
 import numpy as np
 
 import mitsonar
-from mitsonar.io import atomic_path
+from mitsonar.data.io import atomic_path
 from mitsonar.plots import _pyplot
-from mitsonar.reference import image_paths, plane_images
+from mitsonar.evaluation.reference import image_paths, plane_images
 
 BROADSIDE = np.array([0.0, 0.0, 1.0])
 

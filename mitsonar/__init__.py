@@ -4,26 +4,27 @@ Importing mitsonar selects a working libLLVM for Dr.Jit (see ``mitsonar._native`
 Dr.Jit is loaded. SI units everywhere; angles in radians.
 """
 
-from ._native import configure_llvm
+from mitsonar._native import configure_llvm
 
 configure_llvm()
 
-from .array import ArrayGeometry, ArrayLayout  # noqa: E402
-from .frames import (Pose, angles_from_direction, direction_from_angles,  # noqa: E402
+from mitsonar.physics.array import ArrayGeometry, ArrayLayout  # noqa: E402
+from mitsonar.frames import (Pose, angles_from_direction, direction_from_angles,  # noqa: E402
                      direction_from_fov_angles, fov_angles)
-from .camera import CameraModel, CameraRenderer  # noqa: E402
-from .dataset import DatasetSpec, open_dataset, render_dataset  # noqa: E402
-from .materials import PRESETS, AcousticMaterial, preset  # noqa: E402
-from .medium import Medium  # noqa: E402
-from .ofdm import OfdmSonar, Schedule, code_set  # noqa: E402
-from .processing import Detection, DetectionSettings  # noqa: E402
-from .scene import AcousticScene, SceneError, load_scene  # noqa: E402
-from .signals import Pulse  # noqa: E402
-from .sonar import Ping, Scan, Sonar, SonarConfig  # noqa: E402
-from .tracer import TraceSettings  # noqa: E402
-from .trajectory import OdometryDrift, Trajectory  # noqa: E402
-from .transducer import Transducer  # noqa: E402
-from .voxelmap import VoxelMap, VoxelMapSettings, colourise  # noqa: E402
+from mitsonar.sensors.camera import CameraModel, CameraRenderer  # noqa: E402
+from mitsonar.data.dataset import DatasetSpec, open_dataset, render_dataset  # noqa: E402
+from mitsonar.physics.materials import PRESETS, AcousticMaterial, preset  # noqa: E402
+from mitsonar.physics.medium import Medium  # noqa: E402
+from mitsonar.sensors.ofdm_sonar import OfdmSonar  # noqa: E402
+from mitsonar.signal.ofdm import Schedule, code_set  # noqa: E402
+from mitsonar.signal.receiver import Detection, DetectionSettings  # noqa: E402
+from mitsonar.scene.loading import AcousticScene, SceneError, load_scene  # noqa: E402
+from mitsonar.physics.waveforms import Pulse  # noqa: E402
+from mitsonar.sensors.sonar import Ping, Scan, Sonar, SonarConfig  # noqa: E402
+from mitsonar.trace.tracer import TraceSettings  # noqa: E402
+from mitsonar.sensors.trajectory import OdometryDrift, Trajectory  # noqa: E402
+from mitsonar.physics.transducer import Transducer  # noqa: E402
+from mitsonar.recon.voxelmap import VoxelMap, VoxelMapSettings, colourise  # noqa: E402
 
 __all__ = ["AcousticMaterial", "AcousticScene", "ArrayGeometry", "ArrayLayout", "CameraModel",
            "CameraRenderer", "DatasetSpec", "Detection", "OdometryDrift", "Trajectory",

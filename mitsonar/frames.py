@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .validation import check_finite
+from mitsonar.validation import check_finite
 
 #: Sensor mount on the robot (Scout Mini class): (0.1, 0, 0.5) m from the chassis centre.
 SENSOR_MOUNT_TRANSLATION = np.array([0.1, 0.0, 0.5])

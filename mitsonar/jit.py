@@ -37,7 +37,7 @@ def rays(origins, directions, max_distance=None):
     """A Mitsuba ``Ray3f`` batch from origins (N, 3) or one origin (3,) and unit directions
     (N, 3) [m], world frame; ``max_distance`` (N,) [m] optional. Inputs are copied aligned
     (:func:`to_jit`)."""
-    from .scene import mitsuba
+    from mitsonar.scene.loading import mitsuba
 
     mi = mitsuba()
     d = np.asarray(directions, dtype=float).reshape(-1, 3)

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .frames import fov_angles
-from .io import atomic_path
+from mitsonar.frames import fov_angles
+from mitsonar.data.io import atomic_path
 
 
 def _pyplot():

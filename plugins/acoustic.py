@@ -19,8 +19,8 @@ from __future__ import annotations
 
 import mitsuba as mi
 
-from mitsonar.materials import AcousticMaterial, preset
-from mitsonar.scene import VARIANT
+from mitsonar.physics.materials import AcousticMaterial, preset
+from mitsonar.scene.loading import VARIANT
 
 if mi.variant() is None:  # the class below derives from a variant-specific mi.BSDF
     mi.set_variant(VARIANT)

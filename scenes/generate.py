@@ -82,7 +82,7 @@ class Material:
 
     Attributes:
         id: material id in the XML.
-        preset: acoustic preset name (``mitsonar.materials.PRESETS``).
+        preset: acoustic preset name (``mitsonar.physics.materials.PRESETS``).
         optical: nested Mitsuba BSDF type: 'diffuse', 'thindielectric' or 'dielectric'.
         rgb: diffuse reflectance (linear RGB) for 'diffuse' without a texture.
         ior: interior index of refraction for the dielectrics.
@@ -1612,7 +1612,7 @@ def render_preview(scene_xml, png, view: str = "camera", width: int = 320, heigh
     """Render a PNG of ``scene_xml`` with Mitsuba's path tracer from the camera placeholder
     (``view='camera'``) or from ``overview`` = (origin, target) with a 75 deg lens."""
     import mitsonar  # noqa: F401  (configures Dr.Jit's LLVM)
-    from mitsonar.scene import mitsuba
+    from mitsonar.scene.loading import mitsuba
 
     mi = mitsuba()
     scene = mi.load_file(str(scene_xml), optimize=False, width=width, height=height, spp=spp)

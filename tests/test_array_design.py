@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 from mitsonar import ArrayGeometry, ArrayLayout, SonarConfig
-from mitsonar.array import APERTURE, MIN_SPACING
-from mitsonar.array_design import (DEFAULT_BASELINE, BeamCriteria, GASettings, LatticeObjective,
+from mitsonar.physics.array import APERTURE, MIN_SPACING
+from mitsonar.design.array_design import (DEFAULT_BASELINE, BeamCriteria, GASettings, LatticeObjective,
                                    _repair, default_layout_path, design_arrays, evaluate_layout,
                                    load_layout_file, min_joint_spacing, uniform_pair)
 

@@ -4,13 +4,13 @@ import numpy as np
 import pytest
 
 import mitsonar
-from mitsonar.baselines import (DepthCamera, DepthCameraModel, Lidar, LidarModel,
+from mitsonar.sensors.baselines import (DepthCamera, DepthCameraModel, Lidar, LidarModel,
                                 map_trajectory)
 from mitsonar.frames import SENSOR_MOUNT_TRANSLATION
-from mitsonar.metrics import evaluate
-from mitsonar.scene import scene_mesh
+from mitsonar.evaluation.metrics import evaluate
+from mitsonar.scene.loading import scene_mesh
 from conftest import rectangle_xml
-from mitsonar.scene import material_xml
+from mitsonar.scene.loading import material_xml
 
 #: Box room: x in [-3, 3], y in [-2, 2], z in [0, 2.5] [m]; rectangles overlap at the edges.
 BOX_LO, BOX_HI = np.array([-3.0, -2.0, 0.0]), np.array([3.0, 2.0, 2.5])

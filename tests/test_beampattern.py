@@ -5,7 +5,7 @@ import pytest
 from scipy.special import j1
 
 from mitsonar import ArrayLayout, Medium, Transducer, direction_from_fov_angles
-from mitsonar.beampattern import (array_factor, cut_widths, fov_grid, main_lobe_width,
+from mitsonar.physics.beampattern import (array_factor, cut_widths, fov_grid, main_lobe_width,
                                   main_lobe_widths, one_way_pattern, pair_side_lobe_levels,
                                   peak_side_lobe_levels, steered_array_factors, steered_patterns,
                                   two_way_pattern)

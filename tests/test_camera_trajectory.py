@@ -4,11 +4,11 @@ import numpy as np
 import pytest
 
 import mitsonar
-from mitsonar.camera import CameraModel, CameraRenderer
+from mitsonar.sensors.camera import CameraModel, CameraRenderer
 from mitsonar.frames import direction_from_angles
-from mitsonar.trajectory import OdometryDrift, Trajectory
+from mitsonar.sensors.trajectory import OdometryDrift, Trajectory
 from conftest import IDENTITY, rectangle_xml
-from mitsonar.scene import material_xml
+from mitsonar.scene.loading import material_xml
 
 SMALL = CameraModel().at_resolution(160)
 

@@ -9,7 +9,7 @@ import mitsonar
 from mitsonar import _native
 from mitsonar.cli import main
 from conftest import rectangle_xml
-from mitsonar.scene import material_xml
+from mitsonar.scene.loading import material_xml
 
 
 @pytest.fixture

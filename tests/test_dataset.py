@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mitsonar.dataset import DatasetError, DatasetSpec, _Renderer, open_dataset, render_dataset
+from mitsonar.data.dataset import DatasetError, DatasetSpec, _Renderer, open_dataset, render_dataset
 
 ROOM = str(Path(__file__).resolve().parents[1] / "scenes" / "room_glass" / "scene.xml")
 # Two samples, three beams each, tiny images: seconds, not minutes.
@@ -41,8 +41,8 @@ def test_write_read_round_trip_is_exact(reference):
     renderer = _Renderer(SPEC)
     sample = ds[1]
     pose = sample.pose
-    from mitsonar.trajectory import sensor_poses
-    from mitsonar.dataset import _derive_seed
+    from mitsonar.sensors.trajectory import sensor_poses
+    from mitsonar.data.dataset import _derive_seed
 
     sensor = sensor_poses(np.array([pose["robot_pose_truth"]]))[0]
     seed = _derive_seed(SPEC.seed, "sample", 1)
@@ -61,7 +61,7 @@ def test_write_read_round_trip_is_exact(reference):
 def test_killed_render_resumes_to_the_same_dataset(reference, tmp_path):
     out = tmp_path / "resumed"
     code = ("import numpy as np, sys; sys.path.insert(0, %r); from test_dataset import SPEC; "
-            "from mitsonar.dataset import render_dataset; render_dataset(SPEC, %r)"
+            "from mitsonar.data.dataset import render_dataset; render_dataset(SPEC, %r)"
             % (str(Path(__file__).parent), str(out)))
     proc = subprocess.Popen([sys.executable, "-c", code])
     deadline = time.time() + 120

@@ -11,11 +11,11 @@ import numpy as np
 import pytest
 
 import mitsonar
-from mitsonar.beampattern import array_factor, main_lobe_width
+from mitsonar.physics.beampattern import array_factor, main_lobe_width
 from mitsonar.frames import direction_from_fov_angles
 from conftest import BROADSIDE, IDENTITY, rectangle_xml, sphere_xml, write_scene
-from mitsonar.scene import material_xml
-from mitsonar.reference import image_paths, plane_images
+from mitsonar.scene.loading import material_xml
+from mitsonar.evaluation.reference import image_paths, plane_images
 
 QUIET = mitsonar.SonarConfig(noise_rms=0.0)
 RIGID = {"impedance": 1e12, "scattering": 0.0}
@@ -283,7 +283,7 @@ def test_beams_traced_together_equal_beams_traced_alone(scene_file):
             a, b = getattr(batch.paths, name), getattr(alone.paths, name)
             np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-12 * np.abs(b).max(initial=1.0))
     scan = sonar.scan(IDENTITY, directions[:10], seed=3)
-    pings = [sonar.ping(IDENTITY, u, seed=mitsonar.sonar._beam_seed(3, b))
+    pings = [sonar.ping(IDENTITY, u, seed=mitsonar.sensors.sonar._beam_seed(3, b))
              for b, u in enumerate(directions[:10])]
     np.testing.assert_array_equal(scan.depth, [p.detection.depth for p in pings])
     assert np.isfinite(scan.depth).sum() >= 3

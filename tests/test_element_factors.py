@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 import mitsonar
-from mitsonar.element_factors import directivity_series, element_factors
+from mitsonar.trace.element_factors import directivity_series, element_factors
 
 
 def _numpy_factors(points, normals, edges, elements, gain, transducer, k, log_att, c,

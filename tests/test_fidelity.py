@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 
 import mitsonar
-from mitsonar.fidelity import PRESETS, choose_fidelity, fidelity
-from mitsonar.scene import load_scene
+from mitsonar.evaluation.fidelity import PRESETS, choose_fidelity, fidelity
+from mitsonar.scene.loading import load_scene
 
 
 def test_presets_set_the_knobs_and_keep_the_noise_density():
@@ -24,7 +24,7 @@ def test_a_wall_at_normal_incidence_needs_only_the_draft_level(scene_file):
     """A specular wall is converged with the coarsest grid: the choice stops at 'draft' (depths
     agree with 'fine' to well under 1 mm)."""
     from conftest import IDENTITY, rectangle_xml
-    from mitsonar.scene import material_xml
+    from mitsonar.scene.loading import material_xml
 
     wall = load_scene(scene_file("wall", material_xml("w", preset="glass", scattering=0.0),
                                  rectangle_xml("w", (0, 0, 2.0))))
@@ -40,7 +40,7 @@ def test_diffuse_scene_judged_against_the_ground_truth():
     as close to the true surfaces and they detect as many beams, so the choice stops at draft."""
     from pathlib import Path
 
-    from mitsonar.trajectory import sensor_poses
+    from mitsonar.sensors.trajectory import sensor_poses
 
     path = Path(__file__).resolve().parents[1] / "scenes" / "room_glass" / "scene.xml"
     trajectory = mitsonar.Trajectory.from_scene(path)
@@ -55,7 +55,7 @@ def test_diffuse_scene_judged_against_the_ground_truth():
 
 
 def test_agreement_is_median_surface_distance_and_detected_fraction():
-    from mitsonar.fidelity import FidelityRun
+    from mitsonar.evaluation.fidelity import FidelityRun
 
     def run(distances_mm):
         d = np.array(distances_mm, dtype=float) / 1e3  # NaN: no detection

@@ -6,12 +6,12 @@ import numpy as np
 import pytest
 
 import mitsonar
-from mitsonar.array import ArrayGeometry
-from mitsonar.camera import CameraModel, CameraRenderer
+from mitsonar.physics.array import ArrayGeometry
+from mitsonar.sensors.camera import CameraModel, CameraRenderer
 from mitsonar.frames import direction_from_angles, fov_angles
-from mitsonar.lines import (_angle_neighbours, clip_segments, close_junctions, detect_segments,
+from mitsonar.recon.lines import (_angle_neighbours, clip_segments, close_junctions, detect_segments,
                             fov_crop_box, merge_collinear, scan_directions, scan_pixels, triangle_surfels)
-from mitsonar.scene import material_xml, spanned_rectangle_xml
+from mitsonar.scene.loading import material_xml, spanned_rectangle_xml
 from conftest import IDENTITY
 
 CAMERA = CameraModel()

@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 import mitsonar
-from mitsonar.scene import DefaultMaterialWarning, SceneError
+from mitsonar.scene.loading import DefaultMaterialWarning, SceneError
 from conftest import rectangle_xml
-from mitsonar.scene import material_xml
+from mitsonar.scene.loading import material_xml
 
 Z_AIR = mitsonar.Medium().impedance
 

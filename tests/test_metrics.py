@@ -9,12 +9,12 @@ import pytest
 
 import mitsonar
 from mitsonar.cli import main
-from mitsonar.io import write_ply
-from mitsonar.metrics import (Scores, error_jumps, evaluate, point_to_mesh, sample_surface,
+from mitsonar.data.io import write_ply
+from mitsonar.evaluation.metrics import (Scores, error_jumps, evaluate, point_to_mesh, sample_surface,
                               visible_from)
-from mitsonar.scene import SceneError, scene_mesh
+from mitsonar.scene.loading import SceneError, scene_mesh
 from conftest import rectangle_xml
-from mitsonar.scene import material_xml
+from mitsonar.scene.loading import material_xml
 
 SCENES = Path(__file__).resolve().parent.parent / "scenes"
 TRANSMITTING = {"dielectric", "thindielectric", "roughdielectric"}

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 import mitsonar
-from mitsonar.ofdm import PAPER_TONES, Schedule, check_orthogonal, code_correlation, code_set
+from mitsonar.signal.ofdm import PAPER_TONES, Schedule, check_orthogonal, code_correlation, code_set
 
 
 def test_paper_tones_are_orthogonal_and_give_25_codes():
@@ -62,10 +62,10 @@ def test_25_simultaneous_targets_are_decoded_in_one_cycle(scene_file):
     echoes are comparable, one cycle, broadband transducers (20 kHz at -6 dB): every code is
     decoded within 1 cm and the cross-talk the other codes leave is 6 dB below the echo."""
     from conftest import IDENTITY, sphere_xml
-    from mitsonar.scene import material_xml
+    from mitsonar.scene.loading import material_xml
 
     from mitsonar.frames import direction_from_fov_angles
-    from mitsonar.ofdm import OfdmSonar
+    from mitsonar.sensors.ofdm_sonar import OfdmSonar
 
     hh, vv = np.meshgrid(np.radians(np.arange(-20, 21, 10)), np.radians(np.arange(-16, 17, 8)))
     directions = direction_from_fov_angles(hh.ravel(), vv.ravel())
@@ -83,7 +83,7 @@ def test_25_simultaneous_targets_are_decoded_in_one_cycle(scene_file):
 
 
 def test_pose_along_a_trajectory_moves_the_sensor_head():
-    from mitsonar.ofdm import pose_along
+    from mitsonar.sensors.ofdm_sonar import pose_along
 
     traj = mitsonar.Trajectory(np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]]), speed=0.5)
     pose_at = pose_along(traj)
@@ -100,9 +100,9 @@ def test_wall_at_rest_has_the_same_depth_from_ofdm_frames_as_from_single_beam_pi
     as the plane fitted to each point set: offsets within 1 cm (measured 3 mm on the 117-beam
     frame), normal within 2 deg; and no OFDM point is misranged (all within 10 cm of the wall)."""
     from conftest import IDENTITY, rectangle_xml
-    from mitsonar.scene import material_xml
+    from mitsonar.scene.loading import material_xml
 
-    from mitsonar.ofdm import OfdmSonar
+    from mitsonar.sensors.ofdm_sonar import OfdmSonar
 
     config = mitsonar.SonarConfig(transducer=mitsonar.Transducer(bandwidth_6db=20e3))
     sonar = mitsonar.Sonar(scene_file("wall", material_xml("w", preset="concrete"),
@@ -129,10 +129,10 @@ def test_wall_at_rest_has_the_same_depth_from_ofdm_frames_as_from_single_beam_pi
 
 def test_a_schedule_beyond_the_arrays_field_of_view_is_refused(scene_file):
     from conftest import rectangle_xml
-    from mitsonar.scene import material_xml
+    from mitsonar.scene.loading import material_xml
 
     from mitsonar.frames import direction_from_fov_angles
-    from mitsonar.ofdm import OfdmSonar
+    from mitsonar.sensors.ofdm_sonar import OfdmSonar
 
     sonar = mitsonar.Sonar(scene_file("wall", material_xml("w", preset="concrete"), rectangle_xml("w", (0, 0, 2.0))))
     ofdm = OfdmSonar(sonar)

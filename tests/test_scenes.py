@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 
 import mitsonar  # noqa: F401  (configures Dr.Jit's LLVM before Mitsuba loads)
-from mitsonar.materials import preset
-from mitsonar.scene import DefaultMaterialWarning, load_scene, mitsuba
+from mitsonar.physics.materials import preset
+from mitsonar.scene.loading import DefaultMaterialWarning, load_scene, mitsuba
 from mitsonar.scenes import generate
 
 SCENES_DIR = Path(generate.__file__).resolve().parent

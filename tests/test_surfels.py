@@ -5,11 +5,11 @@ import numpy as np
 import pytest
 
 import mitsonar
-from mitsonar.camera import CameraModel
-from mitsonar.surfels import (CheckPings, PlaneGroups, PoseScan, SurfelSettings, fit_plane,
+from mitsonar.sensors.camera import CameraModel
+from mitsonar.recon.surfels import (CheckPings, PlaneGroups, PoseScan, SurfelSettings, fit_plane,
                               group_surfels, grow_planes, map_surfels, region_labels,
                               shadow_segments, verify)
-from mitsonar.scene import material_xml, spanned_rectangle_xml
+from mitsonar.scene.loading import material_xml, spanned_rectangle_xml
 from conftest import write_scene
 
 

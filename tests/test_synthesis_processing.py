@@ -4,11 +4,11 @@ import numpy as np
 import pytest
 
 import mitsonar
-from mitsonar.processing import bistatic_depth
-from mitsonar.synthesis import Paths
+from mitsonar.signal.receiver import bistatic_depth
+from mitsonar.trace.paths import Paths
 from conftest import BROADSIDE, IDENTITY, rectangle_xml
-from mitsonar.scene import material_xml
-from mitsonar.reference import direct_summation
+from mitsonar.scene.loading import material_xml
+from mitsonar.evaluation.reference import direct_summation
 
 
 @pytest.fixture(scope="module")
@@ -155,7 +155,7 @@ def test_real_recording_and_band_of_the_synthesizer(wall_path):
     """to_samples is the real part of to_analytic (a half-length inverse FFT), or to_analytic
     itself for baseband, and band_spectra inverts it on the band; a waveform wider than the band
     the synthesizer was built for is an error naming the fix, not a silently truncated spectrum."""
-    from mitsonar.ofdm import Code
+    from mitsonar.signal.ofdm import Code
 
     for baseband in (False, True):
         cfg = mitsonar.SonarConfig(noise_rms=0.0, max_range=3.0, baseband=baseband, band_floor=1e-5)
@@ -200,7 +200,8 @@ def test_narrowband_element_merge_matches_the_element_pair_sum(wall_path, azimut
     first-order term) against the synthesis of all 625 element pairs, on the same traced paths of
     a steered beam, no noise: the TCT40 pulse and an OFDM code's tones, and the depth."""
     from mitsonar.frames import direction_from_fov_angles
-    from mitsonar.ofdm import Code, OfdmSonar
+    from mitsonar.signal.ofdm import Code
+    from mitsonar.sensors.ofdm_sonar import OfdmSonar
 
     u = direction_from_fov_angles(np.radians(azimuth_deg), np.radians(elevation_deg))
     sonar = mitsonar.Sonar(wall_path, mitsonar.SonarConfig(noise_rms=0.0))
@@ -223,8 +224,8 @@ def test_narrowband_element_merge_matches_the_element_pair_sum(wall_path, azimut
 def test_broadband_transducers_are_not_merged(wall_path):
     """With 20 kHz transducers the echoes are too broad for merging (measured error 15-40 % on
     steered beams): every element pair is synthesised."""
-    from mitsonar.ofdm import Code
-    from mitsonar.transducer import Transducer
+    from mitsonar.signal.ofdm import Code
+    from mitsonar.physics.transducer import Transducer
 
     sonar = mitsonar.Sonar(wall_path, mitsonar.SonarConfig(transducer=Transducer(bandwidth_6db=20e3)))
     paths = sonar.tracer.trace(IDENTITY, BROADSIDE).paths

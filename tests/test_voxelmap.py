@@ -5,12 +5,12 @@ import pytest
 
 import mitsonar
 from mitsonar._native import import_open3d
-from mitsonar.camera import CameraModel, CameraRenderer
+from mitsonar.sensors.camera import CameraModel, CameraRenderer
 from mitsonar.frames import Pose, direction_from_fov_angles
-from mitsonar.voxelmap import (VoxelMap, VoxelMapSettings, bilinear_sample, colourise,
+from mitsonar.recon.voxelmap import (VoxelMap, VoxelMapSettings, bilinear_sample, colourise,
                                linear_to_srgb, save_voxel_figure, save_voxel_ply, srgb_to_linear,
                                statistical_outliers, voxelise)
-from mitsonar.scene import material_xml
+from mitsonar.scene.loading import material_xml
 
 # 160 x 120, f = 133.3 px; the raw render, exact at one sample per pixel (a denoiser would
 # smooth the checker)
@@ -71,7 +71,7 @@ def checker_wall(tmp_path_factory):
 
 def texture_srgb(scene, origin, points):
     """Ground truth: the wall's radiance at ``points`` evaluated by Mitsuba, sRGB encoded."""
-    mi = mitsonar.scene.mitsuba()
+    mi = mitsonar.scene.loading.mitsuba()
     d = points - origin
     d /= np.linalg.norm(d, axis=1, keepdims=True)
     n = len(points)
@@ -344,8 +344,8 @@ def test_checkerboard_wall_gives_voxels_with_the_colours_of_its_squares(scene_fi
     voxels within 6 cm of a square's edge (voxel size + footprint) are not judged."""
     from conftest import rectangle_xml
 
-    from mitsonar.mapping import RepeatedMapSpec, map_repeated
-    from mitsonar.scene import mitsuba
+    from mitsonar.recon.repeated import RepeatedMapSpec, map_repeated
+    from mitsonar.scene.loading import mitsuba
 
     red, blue = (0.8, 0.05, 0.05), (0.05, 0.05, 0.8)
     board = ('<texture type="checkerboard" name="reflectance">'
@@ -388,8 +388,8 @@ def test_repeated_frames_are_spread_by_the_interval(scene_file):
     """Frame k starts (pose, camera image) at k x interval; shorter than a frame is refused."""
     from conftest import rectangle_xml
 
-    from mitsonar.mapping import RepeatedMapSpec, map_repeated
-    from mitsonar.ofdm import pose_along
+    from mitsonar.recon.repeated import RepeatedMapSpec, map_repeated
+    from mitsonar.sensors.ofdm_sonar import pose_along
 
     material = material_xml("w", preset="concrete")
     sonar = mitsonar.Sonar(scene_file("wall", material, rectangle_xml("w", (3.0, 0, 0.5),

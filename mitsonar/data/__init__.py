@@ -1,0 +1,1 @@
+"""Data on disk: paired camera + echo datasets and atomic file output."""

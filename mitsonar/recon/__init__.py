@@ -1,0 +1,2 @@
+"""Reconstruction: camera lines, surfel mapping (paper III-D) and repeated-scanning voxel maps
+(paper III-E)."""

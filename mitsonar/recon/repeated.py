@@ -1,0 +1,180 @@
+"""Repeated-scanning maps (paper III-E): OFDM frames along a trajectory -> points coloured by the
+camera -> world frame by (12) -> outlier removal -> coloured voxel map (PLY + PNG).
+
+Registration. The beams of a 208.5 ms frame leave from poses up to v x 0.2 m apart (and up to
+6 deg apart while the robot turns at 30 deg/s). ``registration="beam"`` (default) registers
+each beam with its own pose at firing (motion compensation; it needs odometry at the cycle
+rate, 43 Hz, which wheel odometry exceeds). The paper registers a whole frame with the
+odometry pose q_i of its start (``registration="frame"``, also when its image is taken), so a
+moving robot smears surfaces (the paper's Fig. 8b failure case; ``experiments/ofdm_motion.py``
+measures it).
+"""
+
+from __future__ import annotations
+
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from mitsonar.sensors.camera import CameraModel, CameraRenderer
+from mitsonar.frames import Pose
+from mitsonar.sensors.ofdm_sonar import Frame, OfdmSonar, pose_along
+from mitsonar.sensors.sonar import Sonar, SonarConfig
+from mitsonar.sensors.trajectory import Trajectory, add_trajectory_argument, trajectory_from_args
+from mitsonar.validation import check_positive
+from mitsonar.recon.voxelmap import VoxelMap, VoxelMapSettings, colourise, save_voxel_figure, save_voxel_ply
+
+
+REGISTRATIONS = ("frame", "beam")
+
+
+@dataclass(frozen=True)
+class RepeatedMapSpec:
+    """What to map.
+
+    Attributes:
+        frames: number of OFDM frames, fired from the trajectory's start.
+        interval: time between the starts of consecutive frames [s]; None: back to back (the
+            frame duration, 208.5 ms at the paper's settings). A longer interval keeps every
+            n-th frame of a continuous run (frames spread along the trajectory; the ones in
+            between are not simulated).
+        scan_step: beam grid step over the field of view [rad] (5 deg: the paper's 13 x 9).
+        image_width: camera image width [pixels]; spp: camera samples per pixel.
+        voxels: voxel size, outlier removal.
+        registration: "beam" (each beam's pose at firing) or "frame" (one odometry pose per
+            frame, as the paper).
+        seed: seeds every frame's noise and diffuse phases.
+    """
+
+    frames: int = 5
+    interval: float | None = None
+    scan_step: float = np.radians(5.0)
+    image_width: int = 320
+    spp: int = 8
+    voxels: VoxelMapSettings = VoxelMapSettings()
+    registration: str = "beam"
+    seed: int = 0
+
+    def __post_init__(self):
+        if int(self.frames) != self.frames or self.frames < 1:
+            raise ValueError(f"RepeatedMapSpec.frames must be a positive integer, got {self.frames}")
+        check_positive("RepeatedMapSpec.scan_step [rad]", self.scan_step)
+        if self.interval is not None:
+            check_positive("RepeatedMapSpec.interval [s]", self.interval)
+        if self.registration not in REGISTRATIONS:
+            raise ValueError(f"RepeatedMapSpec.registration must be one of {REGISTRATIONS}, got "
+                             f"{self.registration!r}")
+
+
+@dataclass(frozen=True)
+class ScannedFrame:
+    """One OFDM frame and the camera image taken at its start.
+
+    Attributes:
+        frame: the decoded frame (each beam's pose at firing included).
+        image: (H, W, 3) linear RGB.
+        pose: world-from-sensor pose of the head at the frame's start (odometry stamp, image).
+    """
+
+    frame: Frame
+    image: np.ndarray
+    pose: Pose
+
+
+def scan_repeated(sonar: Sonar, trajectory: Trajectory, spec: RepeatedMapSpec = RepeatedMapSpec(),
+                  progress=None) -> tuple[list[ScannedFrame], CameraModel]:
+    """Fire ``spec.frames`` OFDM frames along the trajectory, ``spec.interval`` apart (default:
+    back to back), with an image each."""
+    ofdm = OfdmSonar(sonar)
+    schedule = ofdm.schedule(sonar.fov_grid(spec.scan_step))
+    interval = schedule.frame_duration if spec.interval is None else spec.interval
+    if interval < schedule.frame_duration:
+        raise ValueError(f"RepeatedMapSpec.interval [s] must be at least the frame duration "
+                         f"({schedule.frame_duration:.4f} s), got {interval}")
+    camera = CameraRenderer(sonar.scene, CameraModel(spp=spec.spp).at_resolution(spec.image_width))
+    pose_at = pose_along(trajectory)
+    scanned = []
+    for k in range(spec.frames):  # frames follow each other in time
+        start = k * interval
+        frame = ofdm.frame(schedule, pose_at, start_time=start, seed=spec.seed + k)
+        pose = pose_at(start)
+        scanned.append(ScannedFrame(frame, camera.render(pose, seed=spec.seed + k).rgb, pose))
+        if progress is not None:
+            progress(k)
+    return scanned, camera.model
+
+
+def build_voxel_map(scanned, camera_model: CameraModel, spec: RepeatedMapSpec = RepeatedMapSpec()):
+    """Colour, register (``spec.registration``) and voxelise scanned frames -> VoxelCloud."""
+    voxel_map = VoxelMap()
+    for s in scanned:
+        poses = s.frame.world_from_sensor if spec.registration == "beam" else s.pose.matrix()
+        voxel_map.add_frame(colourise(s.frame.points_sensor, poses, s.image, camera_model,
+                                      s.pose.matrix()))
+    return voxel_map.voxelise(spec.voxels)
+
+
+def map_repeated(sonar: Sonar, trajectory: Trajectory, spec: RepeatedMapSpec = RepeatedMapSpec(),
+                 progress=None):
+    """Build a coloured voxel map; returns (VoxelCloud, sensor positions (F, 3), scanned frames)."""
+    scanned, camera_model = scan_repeated(sonar, trajectory, spec, progress)
+    positions = np.array([s.pose.translation for s in scanned])
+    return build_voxel_map(scanned, camera_model, spec), positions, scanned
+
+
+def add_cli(subparsers) -> None:
+    """``mitsonar map repeated`` and ``mitsonar map surfel``."""
+    m = subparsers.add_parser("map", help="reconstruction maps")
+    sub = m.add_subparsers(dest="map_command", required=True)
+    r = sub.add_parser("repeated", help="OFDM repeated scanning into a coloured voxel map",
+                       description="Fire OFDM frames along the scene's default trajectory (or the "
+                                   "waypoints given), colour the points from the camera and "
+                                   "voxelise them.")
+    r.add_argument("scene", type=Path)
+    r.add_argument("--out", type=Path, required=True)
+    add_trajectory_argument(r)
+    r.add_argument("--frames", type=int, default=5)
+    r.add_argument("--step", type=float, default=5.0, help="beam grid step [deg] (default 5)")
+    r.add_argument("--voxel", type=float, default=0.05, help="voxel size [m] (default 0.05)")
+    r.add_argument("--speed", type=float, default=None, help="override the trajectory speed [m/s]")
+    r.add_argument("--preset", default="default", help="sonar preset: default or paper")
+    r.add_argument("--broadband", action="store_true",
+                   help="broadband transducers (20 kHz at -6 dB) instead of the 2 kHz TCT40 class")
+    r.add_argument("--registration", choices=REGISTRATIONS, default="beam",
+                   help="each beam's pose at firing (default) or one odometry pose per frame "
+                        "(the paper's)")
+    r.add_argument("--seed", type=int, default=0)
+    r.set_defaults(func=_run_repeated)
+    from mitsonar.recon.surfels import add_cli as add_surfel_cli
+
+    add_surfel_cli(sub)
+
+
+def _run_repeated(args) -> int:
+    from dataclasses import replace
+
+    from tqdm import tqdm
+
+    from mitsonar.physics.transducer import Transducer
+
+    config = SonarConfig.preset(args.preset)
+    if args.broadband:
+        config = replace(config, transducer=Transducer(bandwidth_6db=20e3))
+    trajectory = trajectory_from_args(args)
+    if args.speed is not None:
+        trajectory = replace(trajectory, speed=args.speed)
+    spec = RepeatedMapSpec(frames=args.frames, scan_step=np.radians(args.step),
+                           voxels=VoxelMapSettings(voxel_size=args.voxel),
+                           registration=args.registration, seed=args.seed)
+    sonar = Sonar(args.scene, config)
+    with tqdm(total=spec.frames, desc="frames", unit="frame", file=sys.stderr) as bar:
+        voxels, positions, frames = map_repeated(sonar, trajectory, spec, lambda _: bar.update())
+    save_voxel_ply(args.out / "voxel_map.ply", voxels)
+    save_voxel_figure(args.out / "voxel_map.png", voxels, positions,
+                      title=f"{args.scene.parent.name}: {spec.frames} OFDM frames")
+    detected = sum(int(s.frame.detected.sum()) for s in frames)
+    print(f"{detected} points from {spec.frames} frames -> {len(voxels)} voxels; wrote "
+          f"{args.out}/voxel_map.ply and voxel_map.png (top, side and 3-D views).")
+    return 0

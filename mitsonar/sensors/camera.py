@@ -1,0 +1,227 @@
+"""Monocular camera beside the array: pinhole model, equations (10)(11), and Mitsuba rendering.
+
+Camera: MER2-202-60GM/C class, 1600 x 1200 pixels of 4.5 um (7.2 mm x 5.4 mm sensor), with a
+6 mm lens chosen so the image covers the array's 60 x 40 deg field of view (horizontal 61.9 deg,
+vertical 48.5 deg). The optical centre sits 7.5 cm above the array origin; its axes are the
+sensor's (x right, y down, z forward), so the camera-from-sensor extrinsic is a pure translation.
+Pixel (i, j) covers u in [i, i+1), v in [j, j+1); the principal point is the image centre.
+
+Rendering uses the same loaded ``mi.Scene`` as the sonar. Images are rendered one sample per
+pixel per pass (each pass writes every pixel once) and the passes are averaged in a fixed order,
+so a seed gives bit-identical images however many threads render them.
+
+The Monte Carlo noise of a path tracer at a few samples per pixel is a rendering artefact, not
+camera noise: at 32 spp a lit drywall room shows 15-20 grey levels of it (of 255), more than the
+5-15 levels between two walls at a crease, and the line detector loses those creases. By default
+the image is therefore denoised with Intel Open Image Denoise (OIDN, the ``RT`` filter, as in
+Blender and other production renderers), guided by the albedo and shading-normal images
+rendered from the same samples; at 8 spp that leaves under 1 grey level of noise and keeps
+creases and shadow edges sharp. ``CameraModel(denoise=False)`` keeps the raw estimate.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from mitsonar.frames import Pose
+from mitsonar.jit import rays
+from mitsonar.scene.loading import AcousticScene, mitsuba
+from mitsonar.validation import check_positive
+
+#: Rec. 709 luminance weights for grayscale images from linear RGB.
+LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
+
+
+@dataclass(frozen=True)
+class CameraModel:
+    """Pinhole camera.
+
+    Attributes:
+        width, height: image size [pixels].
+        pixel_pitch: pixel size [m] (scaled with the resolution so the field of view is kept).
+        focal_length: lens focal length [m].
+        offset: (3,) optical centre in the sensor frame [m].
+        spp: samples per pixel of the path tracer.
+        max_depth: path length limit of the path tracer.
+        denoise: denoise the rendered image with OIDN guided by albedo and normals (module
+            docstring); False: the raw Monte Carlo estimate.
+    """
+
+    width: int = 1600
+    height: int = 1200
+    pixel_pitch: float = 4.5e-6
+    focal_length: float = 6.0e-3
+    offset: np.ndarray = field(default_factory=lambda: np.array([0.0, -0.075, 0.0]))
+    spp: int = 16
+    max_depth: int = 6
+    denoise: bool = True
+
+    def __post_init__(self):
+        for name in ("width", "height", "spp", "max_depth"):
+            value = getattr(self, name)
+            if int(value) != value or value < 1:
+                raise ValueError(f"CameraModel.{name} must be a positive integer, got {value}")
+        check_positive("CameraModel.pixel_pitch [m]", self.pixel_pitch)
+        check_positive("CameraModel.focal_length [m]", self.focal_length)
+        object.__setattr__(self, "offset", np.asarray(self.offset, dtype=float))
+
+    def at_resolution(self, width: int) -> "CameraModel":
+        """The same camera and field of view at a lower (or higher) resolution."""
+        scale = self.width / width
+        return replace(self, width=int(width), height=int(round(self.height / scale)),
+                       pixel_pitch=self.pixel_pitch * scale)
+
+    @property
+    def focal_pixels(self) -> float:
+        """Focal length f in pixels, as in (10)."""
+        return self.focal_length / self.pixel_pitch
+
+    @property
+    def principal_point(self) -> tuple[float, float]:
+        """(u_c, v_c) [pixels]: the image centre."""
+        return self.width / 2.0, self.height / 2.0
+
+    @property
+    def horizontal_fov(self) -> float:
+        """Full horizontal field of view [rad]."""
+        return 2.0 * np.arctan(self.width / 2.0 / self.focal_pixels)
+
+    def intrinsics(self) -> np.ndarray:
+        """3x3 matrix K (pixels)."""
+        uc, vc = self.principal_point
+        f = self.focal_pixels
+        return np.array([[f, 0.0, uc], [0.0, f, vc], [0.0, 0.0, 1.0]])
+
+    def camera_from_sensor(self) -> Pose:
+        """Extrinsic: maps sensor-frame points to the camera frame."""
+        return Pose(np.eye(3), -self.offset)
+
+    def world_from_camera(self, sensor_pose: Pose) -> Pose:
+        """Camera pose in the world from the world-from-sensor pose."""
+        return sensor_pose @ self.camera_from_sensor().inverse()
+
+    def project(self, points_camera) -> np.ndarray:
+        """Pixel coordinates (..., 2) of camera-frame points (..., 3) (z > 0)."""
+        p = np.asarray(points_camera, dtype=float)
+        f = self.focal_pixels
+        uc, vc = self.principal_point
+        return np.stack([uc + f * p[..., 0] / p[..., 2], vc + f * p[..., 1] / p[..., 2]], axis=-1)
+
+    def pixel_angles(self, u, v) -> tuple[np.ndarray, np.ndarray]:
+        """Equations (10)(11): (theta, phi) [rad] of pixel coordinates; phi in [0, 2 pi)."""
+        uc, vc = self.principal_point
+        du, dv = np.asarray(u, dtype=float) - uc, np.asarray(v, dtype=float) - vc
+        theta = np.arctan2(np.hypot(du, dv), self.focal_pixels)
+        return theta, np.mod(np.arctan2(dv, du), 2 * np.pi)
+
+    def pixel_rays(self):
+        """Unit directions (H, W, 3), camera frame, through every pixel centre."""
+        u = np.arange(self.width) + 0.5
+        v = np.arange(self.height) + 0.5
+        uu, vv = np.meshgrid(u, v)
+        uc, vc = self.principal_point
+        d = np.stack([(uu - uc) / self.focal_pixels, (vv - vc) / self.focal_pixels,
+                      np.ones_like(uu)], axis=-1)
+        return d / np.linalg.norm(d, axis=-1, keepdims=True)
+
+
+def denoise(rgb, albedo, normal) -> np.ndarray:
+    """OIDN-denoised (H, W, 3) float32 linear radiance from the Monte Carlo estimate ``rgb``,
+    guided by the albedo (H, W, 3) in [0, 1] and shading normals (H, W, 3) in [-1, 1] averaged
+    over the same samples (noisy at their edges; OIDN prefilters them)."""
+    import pyoidn
+
+    def contiguous(a):
+        return np.ascontiguousarray(a, dtype=np.float32)
+
+    return pyoidn.denoise(contiguous(rgb), contiguous(albedo), contiguous(normal), hdr=True)
+
+
+@dataclass(frozen=True)
+class CameraImages:
+    """What the camera sees from one pose.
+
+    Attributes:
+        rgb: (H, W, 3) linear radiance (float32).
+        gray: (H, W) linear luminance (float32).
+        depth: (H, W) z-depth of the first surface in the camera frame [m], inf where none.
+        shape_index: (H, W) index of the shape seen (into ``AcousticScene.shape_ids``), -1 none.
+    """
+
+    rgb: np.ndarray
+    gray: np.ndarray
+    depth: np.ndarray
+    shape_index: np.ndarray
+
+
+class CameraRenderer:
+    """Renders a :class:`CameraModel` in a loaded scene; reuse it for every pose."""
+
+    def __init__(self, scene: AcousticScene, model: CameraModel = CameraModel()):
+        self.mi = mitsuba()
+        self.scene = scene
+        self.model = model
+        path = {"type": "path", "max_depth": model.max_depth}
+        # the aov integrator adds albedo (3 channels) and shading normals (3) after the RGB
+        self._integrator = self.mi.load_dict(
+            {"type": "aov", "aovs": "albedo:albedo,nn:sh_normal", "integrator": path}
+            if model.denoise else path)
+        ids = np.asarray(scene.registry_ids)
+        self._shape_of_registry = np.full(ids.max() + 1, -1)
+        self._shape_of_registry[ids] = np.arange(len(ids))
+
+    def _sensor(self, camera_pose: Pose):
+        mi = self.mi
+        m = self.model
+        origin = camera_pose.translation
+        forward = camera_pose.transform_vectors([0.0, 0.0, 1.0])
+        up = camera_pose.transform_vectors([0.0, -1.0, 0.0])
+        return mi.load_dict({
+            "type": "perspective", "fov": float(np.degrees(m.horizontal_fov)), "fov_axis": "x",
+            "near_clip": 0.01, "far_clip": 1000.0,
+            "to_world": mi.ScalarTransform4f().look_at(origin=origin.tolist(),
+                                                       target=(origin + forward).tolist(),
+                                                       up=up.tolist()),
+            "film": {"type": "hdrfilm", "width": m.width, "height": m.height,
+                     "rfilter": {"type": "box"}, "pixel_format": "rgb"},
+            "sampler": {"type": "independent", "sample_count": 1}})
+
+    def render(self, sensor_pose: Pose, seed: int = 0) -> CameraImages:
+        """Images from the camera of a sensor head at ``sensor_pose`` (world-from-sensor)."""
+        mi = self.mi
+        camera_pose = self.model.world_from_camera(sensor_pose)
+        sensor = self._sensor(camera_pose)
+        base = int(np.random.SeedSequence(seed).generate_state(1)[0] % (2**31))
+        channels = 9 if self.model.denoise else 3
+        total = np.zeros((self.model.height, self.model.width, channels))
+        for k in range(self.model.spp):  # passes of one sample per pixel, summed in order
+            img = mi.render(self.scene.scene, sensor=sensor, integrator=self._integrator,
+                            spp=1, seed=base + k)
+            total += np.asarray(img, dtype=float)[..., :channels]
+        mean = (total / self.model.spp).astype(np.float32)
+        rgb = denoise(mean[..., :3], mean[..., 3:6], mean[..., 6:9]) if self.model.denoise \
+            else np.ascontiguousarray(mean[..., :3])
+        depth, shape_index = self.ground_truth(camera_pose)
+        return CameraImages(rgb, (rgb @ LUMINANCE).astype(np.float32), depth, shape_index)
+
+    def ground_truth(self, camera_pose: Pose):
+        """Z-depth [m] (inf: nothing) and shape index (-1: nothing) per pixel, (H, W) each."""
+        mi = self.mi
+        import drjit as dr
+
+        d_cam = self.model.pixel_rays()
+        d = camera_pose.transform_vectors(d_cam).reshape(-1, 3)
+        o = camera_pose.translation
+        si = self.scene.scene.ray_intersect(rays(o, d))
+        valid = si.is_valid()
+        dr.eval(si.t, si.shape, valid)
+        t = np.where(np.asarray(valid, bool), np.asarray(si.t, float), np.inf)
+        reg = np.asarray(dr.reinterpret_array(mi.UInt32, si.shape), dtype=np.int64)
+        table = self._shape_of_registry
+        index = np.where(np.asarray(valid, bool) & (reg < len(table)),
+                         table[np.minimum(reg, len(table) - 1)], -1)
+        shape = (self.model.height, self.model.width)
+        depth = (t.reshape(shape) * d_cam[..., 2]).astype(np.float32)
+        return depth, index.reshape(shape).astype(np.int32)

@@ -1,0 +1,162 @@
+"""The OFDM sonar: frames of many coded beams simulated and decoded (paper III-E).
+
+All beams of a cycle are superposed in one per-channel recording: each beam is traced from the
+sensor pose at its own transmit time (the robot moves during a frame), driven by its code through
+the transducer response, and the direct cross-talk of every code is included. Decoding: for each
+code, matched filter with its own waveform, delay-and-sum toward its direction, detection relative
+to its transmit time inside the listening window, depth by (7). Codes and schedules:
+:mod:`mitsonar.signal.ofdm`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from mitsonar.frames import Pose
+from mitsonar.sensors.sonar import PRE_ROLL, TRACE_BATCH, Sonar
+from mitsonar.signal.ofdm import PAPER_LISTEN, Schedule, code_set
+from mitsonar.signal.synthesis import EchoSynthesizer
+
+
+@dataclass(frozen=True)
+class Frame:
+    """Decoded frame.
+
+    Attributes:
+        schedule: the schedule it followed.
+        detected: (B,) bool.
+        depth: (B,) [m], NaN where nothing was detected.
+        amplitude: (B,) strongest decoded envelope value [Pa].
+        points_sensor: (B, 3) reflectors in the sensor frame of each beam's pose (NaN if none).
+        world_from_sensor: (B, 4, 4) sensor pose when each beam was fired.
+        crosstalk_db: (B,) level that the other codes of the cycle leave in this code's decoded
+            envelope, relative to this beam's own echo [dB] (NaN where nothing was detected).
+        start_time: frame start on the trajectory's clock [s].
+    """
+
+    schedule: Schedule
+    detected: np.ndarray
+    depth: np.ndarray
+    amplitude: np.ndarray
+    points_sensor: np.ndarray
+    world_from_sensor: np.ndarray
+    crosstalk_db: np.ndarray
+    start_time: float
+
+
+class OfdmSonar:
+    """Simulates and decodes OFDM frames with a :class:`~mitsonar.sensors.sonar.Sonar`'s scene and config.
+
+    Args:
+        sonar: the scene and sensor configuration (its tracer, processor settings and noise).
+        codes: code set (default: the paper's 25).
+        listen: listening time after each cycle [s].
+    """
+
+    def __init__(self, sonar: Sonar, codes=None, listen: float = PAPER_LISTEN):
+        self.sonar = sonar
+        self.codes = tuple(codes or code_set())
+        self.listen = listen
+        cfg = sonar.config
+        duration = PRE_ROLL + len(self.codes) * self.codes[0].slot + listen
+        self.synth = EchoSynthesizer(cfg.pulse, cfg.transducer, cfg.sample_rate, -PRE_ROLL, duration,
+                                     cfg.transducer_response,
+                                     band_threshold=cfg.band_floor, baseband=cfg.baseband,
+                                     waveforms=self.codes + tuple(t for c in self.codes for t in c.parts))
+        from mitsonar.signal.receiver import EchoProcessor
+
+        self.processor = EchoProcessor(cfg.geometry, self.synth, cfg.medium.speed_of_sound,
+                                       cfg.detection, cfg.noise_rms)
+
+    def schedule(self, directions) -> Schedule:
+        """Schedule of beams towards ``directions`` (B, 3), checked against the field of view."""
+        self.sonar.config.geometry.check_in_fov(directions)
+        return Schedule.build(directions, self.codes, self.listen)
+
+    def frame(self, schedule: Schedule, pose_at, start_time: float = 0.0, seed: int = 0) -> Frame:
+        """Simulate and decode one frame.
+
+        Args:
+            schedule: beams, codes and firing times.
+            pose_at: function time [s] -> world-from-sensor :class:`Pose` (the robot's motion).
+            start_time: frame start on ``pose_at``'s clock [s].
+            seed: seeds noise and diffuse phases (same seed, same frame).
+        """
+        n = len(schedule.directions)
+        detected = np.zeros(n, bool)
+        depth = np.full(n, np.nan)
+        amplitude = np.zeros(n)
+        points = np.full((n, 3), np.nan)
+        poses = np.zeros((n, 4, 4))
+        crosstalk = np.full(n, np.nan)
+        for c in range(len(schedule.cycle_start)):  # cycles follow each other in time
+            beams = np.nonzero(schedule.cycle == c)[0]
+            result = self._cycle(schedule, beams, pose_at, start_time, seed)
+            for key, target in (("detected", detected), ("depth", depth), ("amplitude", amplitude),
+                                ("crosstalk", crosstalk)):
+                target[beams] = result[key]
+            points[beams] = result["points"]
+            poses[beams] = result["poses"]
+        return Frame(schedule, detected, depth, amplitude, points, poses, crosstalk, start_time)
+
+    def _cycle(self, schedule: Schedule, beams, pose_at, start_time: float, seed: int) -> dict:
+        sonar = self.sonar
+        n_rx = sonar.config.geometry.rx.count
+        t0 = schedule.cycle_start[schedule.cycle[beams[0]]]
+        offsets = schedule.transmit_time[beams] - t0  # firing times within the cycle
+        codes = [schedule.codes[k] for k in schedule.code_index[beams]]
+        poses = [pose_at(start_time + schedule.transmit_time[b]) for b in beams]
+        echo_spectra = []
+        for first in range(0, len(beams), TRACE_BATCH):  # beams traced a batch at a time
+            batch = slice(first, first + TRACE_BATCH)
+            traces = sonar.tracer.trace_many(poses[batch], schedule.directions[beams[batch]],
+                                             [_seed(seed, b) for b in beams[batch]])
+            for trace, offset, code in zip(traces, offsets[batch], codes[batch]):
+                groups = [(p.delayed(offset), w)
+                          for p, w in sonar.echo_groups(trace.paths, code, self.synth)]
+                echo_spectra.append(self.synth.groups_spectrum(groups, n_rx))
+        direct_total = self.synth.groups_spectrum(
+            [(sonar.tracer.direct_paths(schedule.directions[b]).delayed(offset), code)
+             for b, offset, code in zip(beams, offsets, codes)], n_rx)
+        total = np.sum(echo_spectra, axis=0) + direct_total
+        rec = self.synth.recording(self.synth.to_samples(total), sonar.config.noise_rms,
+                                   seed=_seed(seed, int(beams[0]), _NOISE_STREAM))
+        out = {key: [] for key in ("detected", "depth", "amplitude", "points", "crosstalk")}
+        max_path = 2.0 * sonar.config.max_range  # the listening window of every code
+        for i, (b, offset, code) in enumerate(zip(beams, offsets, codes)):
+            u = schedule.directions[b]
+            blank = self.processor.noiseless_envelope(direct_total, u, code)
+            env, det = self.processor.process(rec, u, blank, code, transmit_time=offset,
+                                              max_path_length=max_path)
+            out["detected"].append(det.detected)
+            out["depth"].append(det.depth)
+            out["amplitude"].append(det.amplitude)
+            out["points"].append(det.point)
+            if det.detected:  # what the cycle's other beams (and the direct paths) leave here
+                leak = self.processor.noiseless_envelope(total - echo_spectra[i], u, code)
+                window = np.abs(rec.times - offset - det.time_of_arrival) < 2 * code.slot
+                out["crosstalk"].append(20 * np.log10(max(leak[window].max(), 1e-30) / det.amplitude))
+            else:
+                out["crosstalk"].append(np.nan)
+        out["poses"] = np.array([pose.matrix() for pose in poses])
+        return {key: np.array(value) for key, value in out.items()}
+
+
+_NOISE_STREAM = 1_000_003  # separates the noise seeds from the per-beam trace seeds
+
+
+def _seed(seed: int, *parts) -> int:
+    return int(np.random.SeedSequence([seed, *map(int, parts)]).generate_state(1)[0])
+
+
+def pose_along(trajectory, mount=None):
+    """``pose_at`` function of a :class:`~mitsonar.sensors.trajectory.Trajectory`: time -> sensor pose."""
+    mount = mount or Pose.sensor_mount()
+
+    def pose_at(t: float) -> Pose:
+        x, y, yaw = trajectory.poses_at([t])[0]
+        return Pose.planar(x, y, yaw) @ mount
+
+    return pose_at
