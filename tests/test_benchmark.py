@@ -2,13 +2,13 @@
 
 import importlib.util
 import sys
-from pathlib import Path
 
 import numpy as np
 
 import mitsonar
+from helpers import ROOT, SCENES
 
-RUN = Path(__file__).resolve().parents[1] / "benchmarks" / "run.py"
+RUN = ROOT / "benchmarks" / "run.py"
 
 
 def load_benchmark():
@@ -21,7 +21,7 @@ def load_benchmark():
 
 def test_profile_stages_are_disjoint(capsys):
     bench = load_benchmark()
-    sonar = mitsonar.Sonar(str(RUN.parents[1] / "scenes" / "room_glass" / "scene.xml"))
+    sonar = mitsonar.Sonar(str(SCENES / "room_glass" / "scene.xml"))
     pose = mitsonar.Pose.sensor_on_robot(0.0, 0.0, 0.0)
     dirs = sonar.fov_grid(np.radians(30.0))[:3]
     rows = bench.profile(lambda: sonar.scan(pose, dirs), len(dirs), len(dirs), "pings/s")

@@ -1,7 +1,7 @@
 """Command-line interface: ``mitsonar <command> ...``. Degrees at this boundary, SI inside.
 
-Each command module listed in ``COMMAND_MODULES`` provides ``add_cli(subparsers)``, which adds
-its parser(s) and sets ``func`` to the function that runs them.
+One module per command group; each provides ``add_cli(subparsers)``, which adds its parser(s)
+and sets ``func`` to the function that runs them. Library modules hold no argument parsing.
 """
 
 from __future__ import annotations
@@ -9,115 +9,15 @@ from __future__ import annotations
 import argparse
 import importlib
 import sys
-import time
-from pathlib import Path
 
-import numpy as np
-
-#: Modules that contribute sub-commands (besides ``scan`` below).
-COMMAND_MODULES: list[str] = ["mitsonar.design.array_design", "mitsonar.data.dataset", "mitsonar.recon.repeated",
-                              "mitsonar.evaluation.metrics"]
-
-
-def parse_pose(text: str) -> tuple[float, float, float]:
-    """'x,y,yaw' with x, y [m] and yaw [deg] -> (x, y, yaw [rad])."""
-    try:
-        x, y, yaw = (float(v) for v in text.split(","))
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"pose must be 'x,y,yaw_deg', got {text!r}") from None
-    if not np.all(np.isfinite([x, y, yaw])):
-        raise argparse.ArgumentTypeError(f"pose must be finite, got {text!r}")
-    return x, y, np.radians(yaw)
-
-
-def parse_fov(text: str) -> tuple[float, float]:
-    """'60x40' [deg] -> (horizontal, vertical) [rad]."""
-    try:
-        h, v = (float(t) for t in text.lower().split("x"))
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"fov must be 'HxV' in degrees, got {text!r}") from None
-    if not (0 < h < 180 and 0 < v < 180):
-        raise argparse.ArgumentTypeError(f"fov angles must lie in (0, 180) degrees, got {text!r}")
-    return np.radians(h), np.radians(v)
-
-
-def _add_scan(subparsers) -> None:
-    p = subparsers.add_parser(
-        "scan", help="scan a grid of beam directions from one robot pose",
-        description="Ping every direction of a grid over the field of view from one robot pose; "
-                    "write the point cloud (PLY), the echoes (NPZ), a summary (JSON) and a "
-                    "picture (PNG).")
-    p.add_argument("scene", type=Path, help="Mitsuba XML scene with acoustic materials")
-    p.add_argument("--pose", type=parse_pose, default=(0.0, 0.0, 0.0),
-                   help="robot pose 'x,y,yaw': metres, metres, degrees (default 0,0,0)")
-    p.add_argument("--fov", type=parse_fov, default=None,
-                   help="scanned field of view 'HxV' in degrees (default: the array's, 60x40)")
-    p.add_argument("--step", type=float, default=5.0, help="grid step [deg] (default 5)")
-    p.add_argument("--preset", default="default", help="sonar preset: default or paper")
-    p.add_argument("--config", type=Path, help="TOML sonar configuration (overrides --preset)")
-    p.add_argument("--seed", type=int, default=0, help="seed of noise and diffuse phases")
-    p.add_argument("--out", type=Path, required=True, help="output directory")
-    p.set_defaults(func=_run_scan)
-
-
-def _run_scan(args) -> int:
-    from tqdm import tqdm
-
-    from mitsonar import Pose, Sonar, SonarConfig
-    from mitsonar.frames import fov_angles
-    from mitsonar.data.io import write_json, write_npz, write_ply
-    from mitsonar.plots import save_scan_figure
-
-    config = SonarConfig.from_toml(args.config) if args.config else SonarConfig.preset(args.preset)
-    if args.step <= 0 or not np.isfinite(args.step):
-        raise ValueError(f"--step must be > 0 degrees, got {args.step}")
-    t0 = time.perf_counter()
-    sonar = Sonar(args.scene, config)
-    x, y, yaw = args.pose
-    pose = Pose.sensor_on_robot(x, y, yaw)
-    dirs = sonar.fov_grid(np.radians(args.step))
-    if args.fov is not None:
-        h, v = fov_angles(dirs)
-        keep = (np.abs(h) <= args.fov[0] / 2 + 1e-9) & (np.abs(v) <= args.fov[1] / 2 + 1e-9)
-        config.geometry.check_in_fov(
-            np.array([[np.tan(args.fov[0] / 2), np.tan(args.fov[1] / 2), 1.0]]))
-        dirs = dirs[keep]
-    load_time = time.perf_counter() - t0
-    with tqdm(total=len(dirs), desc="beams", unit="beam", file=sys.stderr) as bar:
-        scan = sonar.scan(pose, dirs, seed=args.seed, progress=lambda _: bar.update())
-    scan_time = time.perf_counter() - t0 - load_time
-    out = args.out
-    write_ply(out / "points.ply", scan.points_world, scalars={"amplitude": scan.amplitude[scan.detected]})
-    write_npz(out / "echoes.npz", **scan.arrays(), world_from_sensor=pose.matrix(),
-              tx_positions=config.geometry.tx_positions, rx_positions=config.geometry.rx_positions)
-    save_scan_figure(out / "scan.png", scan, title=f"{args.scene.name}, robot at "
-                     f"({x:.2f} m, {y:.2f} m, {np.degrees(yaw):.0f} deg)")
-    depth = scan.depth[scan.detected]
-    summary = {
-        "scene": str(args.scene), "robot_pose": {"x_m": x, "y_m": y, "yaw_deg": float(np.degrees(yaw))},
-        "beams": int(len(dirs)), "detected": int(scan.detected.sum()),
-        "depth_m": {"min": float(depth.min()), "median": float(np.median(depth)),
-                    "max": float(depth.max())} if len(depth) else None,
-        "seconds": {"load": round(load_time, 3), "scan": round(scan_time, 3),
-                    "per_beam": round(scan_time / max(len(dirs), 1), 4)},
-        "files": {"points": "points.ply (world frame, detected beams, amplitude in Pa)",
-                  "echoes": "echoes.npz (see README: Echo file format)",
-                  "picture": "scan.png (depth and echo amplitude over the field of view)"},
-    }
-    write_json(out / "summary.json", summary)
-    print(f"{summary['detected']}/{summary['beams']} beams detected an echo "
-          f"in {scan_time:.1f} s ({summary['seconds']['per_beam'] * 1000:.0f} ms per beam).")
-    if len(depth):
-        print(f"Depths {depth.min():.2f}-{depth.max():.2f} m (median {np.median(depth):.2f} m).")
-    print(f"Wrote {out}/points.ply, echoes.npz, summary.json and scan.png "
-          "(depth and echo amplitude over the field of view).")
-    return 0
+#: Command groups, in the order ``mitsonar --help`` lists them.
+COMMAND_MODULES: list[str] = ["mitsonar.cli.scan", "mitsonar.cli.map", "mitsonar.cli.dataset",
+                              "mitsonar.cli.evaluate", "mitsonar.cli.array"]
 
 
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="mitsonar", description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="command", required=True)
-    _add_scan(sub)
     for name in COMMAND_MODULES:
         importlib.import_module(name).add_cli(sub)
     return parser

@@ -64,7 +64,6 @@ Usage::
 from __future__ import annotations
 
 import json
-import sys
 import time
 from dataclasses import asdict, dataclass, field
 from importlib import resources
@@ -75,7 +74,6 @@ import numpy as np
 from mitsonar.physics.array import APERTURE, LAYOUT_FILE, MIN_SPACING, ArrayGeometry, ArrayLayout
 from mitsonar.physics.beampattern import (cut_directions, fov_grid, in_fov, main_lobe_widths, one_way_pattern,
                           pair_side_lobe_levels)
-from mitsonar.data.io import write_json
 from mitsonar.physics.medium import Medium
 from mitsonar.physics.transducer import Transducer
 from mitsonar.validation import check_positive, check_range
@@ -645,58 +643,6 @@ def load_layout_file(path) -> tuple[ArrayLayout, ArrayLayout, float, dict]:
         raise ValueError(f"{path}: not a layout file ({type(err).__name__}: {err})") from None
     ArrayGeometry(tx=tx, rx=rx, baseline=baseline)  # validates the joint spacing
     return tx, rx, baseline, data
-
-
-# ---- command line ---------------------------------------------------------------------------------
-
-def add_cli(subparsers) -> None:
-    """``mitsonar array design`` and ``mitsonar array plot``."""
-    p = subparsers.add_parser("array", help="design and plot the sparse transmit/receive arrays",
-                              description="Sparse 5x5 array design by genetic algorithm, and "
-                                          "beam-pattern figures.")
-    sub = p.add_subparsers(dest="array_command", required=True)
-    d = sub.add_parser(
-        "design", help="run the genetic algorithm and write the layout JSON",
-        description="Design the interleaved transmit and receive 5x5 layouts by a seeded genetic "
-                    "algorithm that minimises the worst one-way PSLL over the field of view, with "
-                    "the broadside 3 dB width held near 5 deg; print uniform vs optimised PSLL "
-                    "and the widths; write the layout JSON (by default the shipped layout).")
-    defaults = GASettings()
-    d.add_argument("--seed", type=int, default=defaults.seed,
-                   help=f"seed of the genetic algorithm (default {defaults.seed})")
-    d.add_argument("--generations", type=int, default=defaults.generations,
-                   help=f"generations (default {defaults.generations})")
-    d.add_argument("--population", type=int, default=defaults.population,
-                   help=f"layouts per generation (default {defaults.population})")
-    d.add_argument("--out", type=Path, default=None,
-                   help="layout JSON to write (default: the shipped mitsonar/physics/array_layout.json)")
-    d.set_defaults(func=_run_design)
-    from mitsonar.design.figures import add_plot_cli
-
-    add_plot_cli(sub)
-
-
-def _run_design(args) -> int:
-    from tqdm import tqdm
-
-    settings = GASettings(seed=args.seed, generations=args.generations, population=args.population)
-    criteria = BeamCriteria()
-    out = args.out if args.out is not None else default_layout_path()
-    with tqdm(total=settings.generations, desc="GA generations", unit="gen", file=sys.stderr) as bar:
-        def progress(_, best, psll):
-            bar.set_postfix_str(f"objective {best:.2f} dB, worst PSLL {psll:.2f} dB", refresh=False)
-            bar.update()
-        result = design_arrays(settings, criteria, progress=progress)
-    t0 = time.perf_counter()
-    metrics = evaluate_layout(result.tx.positions, result.rx.positions, criteria)
-    grid = uniform_pair()
-    uniform = evaluate_layout(grid[0], grid[1], criteria)
-    record = layout_record(result, metrics, uniform)
-    record["design"]["evaluation_s"] = round(time.perf_counter() - t0, 1)
-    write_json(out, record)
-    print(format_summary(metrics, uniform, result))
-    print(f"Wrote {out}.")
-    return 0
 
 
 def format_summary(metrics: LayoutMetrics, uniform: LayoutMetrics, result: DesignResult | None = None) -> str:

@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import csv
 import io
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -347,36 +346,3 @@ def make_figures(out, layout_path=None, criteria: BeamCriteria = BeamCriteria(),
     write_tables(out, metrics_rows(metrics), criteria)
     tick("tables")
     return metrics
-
-
-# ---- command line ---------------------------------------------------------------------------------
-
-def add_plot_cli(subparsers) -> None:
-    """``mitsonar array plot`` (added under ``mitsonar array`` by :mod:`mitsonar.design.array_design`)."""
-    p = subparsers.add_parser(
-        "plot", help="beam-pattern figures and the PSLL / width table",
-        description="Write the element pattern, the transducer frequency response, the layouts, "
-                    "uniform vs optimised beam patterns at 0 deg and steered, PSLL and 3 dB width "
-                    "over the field of view (PNG), and a table of PSLL and widths (CSV, Markdown).")
-    p.add_argument("--layout", type=Path, default=None,
-                   help="layout JSON (default: the shipped mitsonar/physics/array_layout.json)")
-    p.add_argument("--out", type=Path, default=Path("out/array"),
-                   help="output directory (default out/array)")
-    p.set_defaults(func=_run_plot)
-
-
-def _run_plot(args) -> int:
-    from tqdm import tqdm
-
-    with tqdm(total=9, desc="array figures", unit="step", file=sys.stderr) as bar:
-        metrics = make_figures(args.out, args.layout,
-                               progress=lambda name: (bar.set_postfix_str(name), bar.update()))
-    for row in metrics_rows(metrics):
-        print(f"{row['layout']:22s} {row['pattern']:22s} worst PSLL {row['worst_psll_db']:6.2f} dB, "
-              f"broadside 3 dB width {row['broadside_width_h_deg']:.2f} x "
-              f"{row['broadside_width_v_deg']:.2f} deg")
-    print(f"Wrote {args.out}/: element_pattern.png, frequency_response.png, layout.png, "
-          "beam_patterns.png, beam_cuts.png, psll_width_fov.png, ga_convergence.png (if recorded), "
-          "array_metrics.csv, array_metrics.md.")
-    return 0
-

@@ -12,19 +12,17 @@ measures it).
 
 from __future__ import annotations
 
-import sys
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 
 from mitsonar.sensors.camera import CameraModel, CameraRenderer
 from mitsonar.frames import Pose
 from mitsonar.sensors.ofdm_sonar import Frame, OfdmSonar, pose_along
-from mitsonar.sensors.sonar import Sonar, SonarConfig
-from mitsonar.sensors.trajectory import Trajectory, add_trajectory_argument, trajectory_from_args
+from mitsonar.sensors.sonar import Sonar
+from mitsonar.sensors.trajectory import Trajectory
 from mitsonar.validation import check_positive
-from mitsonar.recon.voxelmap import VoxelMap, VoxelMapSettings, colourise, save_voxel_figure, save_voxel_ply
+from mitsonar.recon.voxelmap import VoxelMap, VoxelMapSettings, colourise
 
 
 REGISTRATIONS = ("frame", "beam")
@@ -122,59 +120,3 @@ def map_repeated(sonar: Sonar, trajectory: Trajectory, spec: RepeatedMapSpec = R
     scanned, camera_model = scan_repeated(sonar, trajectory, spec, progress)
     positions = np.array([s.pose.translation for s in scanned])
     return build_voxel_map(scanned, camera_model, spec), positions, scanned
-
-
-def add_cli(subparsers) -> None:
-    """``mitsonar map repeated`` and ``mitsonar map surfel``."""
-    m = subparsers.add_parser("map", help="reconstruction maps")
-    sub = m.add_subparsers(dest="map_command", required=True)
-    r = sub.add_parser("repeated", help="OFDM repeated scanning into a coloured voxel map",
-                       description="Fire OFDM frames along the scene's default trajectory (or the "
-                                   "waypoints given), colour the points from the camera and "
-                                   "voxelise them.")
-    r.add_argument("scene", type=Path)
-    r.add_argument("--out", type=Path, required=True)
-    add_trajectory_argument(r)
-    r.add_argument("--frames", type=int, default=5)
-    r.add_argument("--step", type=float, default=5.0, help="beam grid step [deg] (default 5)")
-    r.add_argument("--voxel", type=float, default=0.05, help="voxel size [m] (default 0.05)")
-    r.add_argument("--speed", type=float, default=None, help="override the trajectory speed [m/s]")
-    r.add_argument("--preset", default="default", help="sonar preset: default or paper")
-    r.add_argument("--broadband", action="store_true",
-                   help="broadband transducers (20 kHz at -6 dB) instead of the 2 kHz TCT40 class")
-    r.add_argument("--registration", choices=REGISTRATIONS, default="beam",
-                   help="each beam's pose at firing (default) or one odometry pose per frame "
-                        "(the paper's)")
-    r.add_argument("--seed", type=int, default=0)
-    r.set_defaults(func=_run_repeated)
-    from mitsonar.recon.surfels import add_cli as add_surfel_cli
-
-    add_surfel_cli(sub)
-
-
-def _run_repeated(args) -> int:
-    from dataclasses import replace
-
-    from tqdm import tqdm
-
-    from mitsonar.physics.transducer import Transducer
-
-    config = SonarConfig.preset(args.preset)
-    if args.broadband:
-        config = replace(config, transducer=Transducer(bandwidth_6db=20e3))
-    trajectory = trajectory_from_args(args)
-    if args.speed is not None:
-        trajectory = replace(trajectory, speed=args.speed)
-    spec = RepeatedMapSpec(frames=args.frames, scan_step=np.radians(args.step),
-                           voxels=VoxelMapSettings(voxel_size=args.voxel),
-                           registration=args.registration, seed=args.seed)
-    sonar = Sonar(args.scene, config)
-    with tqdm(total=spec.frames, desc="frames", unit="frame", file=sys.stderr) as bar:
-        voxels, positions, frames = map_repeated(sonar, trajectory, spec, lambda _: bar.update())
-    save_voxel_ply(args.out / "voxel_map.ply", voxels)
-    save_voxel_figure(args.out / "voxel_map.png", voxels, positions,
-                      title=f"{args.scene.parent.name}: {spec.frames} OFDM frames")
-    detected = sum(int(s.frame.detected.sum()) for s in frames)
-    print(f"{detected} points from {spec.frames} frames -> {len(voxels)} voxels; wrote "
-          f"{args.out}/voxel_map.ply and voxel_map.png (top, side and 3-D views).")
-    return 0

@@ -121,7 +121,6 @@ Pixel coordinates follow :mod:`mitsonar.recon.lines` (pixel centres at half-inte
 
 from __future__ import annotations
 
-import sys
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
@@ -133,7 +132,6 @@ from mitsonar.frames import Pose
 from mitsonar.recon.lines import (close_junctions, detect_segments, fov_crop_box, scan_directions, scan_pixels,
                     triangle_surfels)
 from mitsonar.sensors.sonar import Sonar
-from mitsonar.sensors.trajectory import add_trajectory_argument, sensor_poses, trajectory_from_args
 from mitsonar.validation import check_positive, check_range
 
 #: Why surfels were not registered (keys of :attr:`SurfelMap.rejected`).
@@ -1359,59 +1357,3 @@ def save_surfel_map(out_dir, surfel_map: SurfelMap, spacing: float = 0.01, title
     write_json(out / "surfels.json", summary(surfel_map))
     save_surfel_figure(out / "surfel_map.png", surfel_map, points, plane, title)
     return points, plane
-
-
-def add_cli(map_subparsers) -> None:
-    """``mitsonar map surfel`` (added to the ``map`` command of :mod:`mitsonar.recon.repeated`)."""
-    s = map_subparsers.add_parser(
-        "surfel", help="surfel scanning into a plane mesh (paper III-D)",
-        description="Along a trajectory: camera lines -> triangle surfels -> "
-                    "4 pings each -> verified surfels -> plane groups -> planes grown between "
-                    "the image lines; scored against the scene's ground truth.")
-    s.add_argument("scene", type=Path)
-    s.add_argument("--out", type=Path, required=True)
-    add_trajectory_argument(s)
-    s.add_argument("--frames", type=int, default=5, help="poses spread evenly over the trajectory")
-    s.add_argument("--width", type=int, default=400, help="camera image width [pixels]")
-    s.add_argument("--spp", type=int, default=8, help="camera samples per pixel (default 8)")
-    s.add_argument("--preset", choices=("default", "paper"), default="default",
-                   help="sonar model (SonarConfig.preset)")
-    s.add_argument("--seed", type=int, default=0)
-    s.set_defaults(func=_run_surfel)
-
-
-def _run_surfel(args) -> int:
-    import time
-
-    from tqdm import tqdm
-
-    from mitsonar.evaluation.metrics import evaluate
-    from mitsonar.scene.loading import scene_mesh
-    from mitsonar.sensors.sonar import SonarConfig
-
-    if args.frames < 1:
-        raise ValueError(f"--frames must be >= 1, got {args.frames}")
-    trajectory = trajectory_from_args(args)
-    poses = sensor_poses(trajectory.poses_at(np.linspace(0.0, trajectory.duration, args.frames)))
-    settings = SurfelSettings(image_width=args.width, spp=args.spp, seed=args.seed)
-    sonar = Sonar(args.scene, SonarConfig.preset(args.preset))
-    start = time.perf_counter()
-    passes = 1 if settings.check_spacing == 0 else 2
-    with tqdm(total=passes * len(poses), desc="poses (scan, check)", unit="pose",
-              file=sys.stderr) as bar:
-        surfel_map = map_surfels(sonar, poses, settings=settings, progress=lambda _: bar.update())
-    points, _ = save_surfel_map(args.out, surfel_map,
-                                title=f"{args.scene.parent.name}: {len(poses)} poses")
-    info = summary(surfel_map)
-    score = evaluate(points, scene_mesh(sonar.scene)).overall if len(points) else None
-    print(f"{info['registered_surfels']} of {info['candidate_surfels']} surfels registered "
-          f"({info['pings']} pings), {len(surfel_map.groups)} planes, "
-          f"{info['shadow_lines_removed']} shadow lines removed, "
-          f"{time.perf_counter() - start:.0f} s; wrote {args.out}/surfel_map.ply, "
-          f"surfel_points.ply, surfels.json, surfel_map.png")
-    if score is not None:
-        print(f"accuracy: {100 * score.accuracy:.1f} % of {len(points)} sampled points "
-              f"({1e-4 * len(points):.1f} m^2) within 2 cm of the ground truth (median "
-              f"{100 * score.median_distance:.1f} cm); they cover {100 * score.completeness:.1f} % "
-              f"of the scene's surface")
-    return 0

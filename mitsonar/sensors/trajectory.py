@@ -138,18 +138,3 @@ class OdometryDrift:
 def sensor_poses(robot_poses) -> list[Pose]:
     """World-from-sensor poses of the sensor head for robot poses (T, 3)."""
     return [Pose.sensor_on_robot(x, y, yaw) for x, y, yaw in np.asarray(robot_poses, dtype=float)]
-
-
-def add_trajectory_argument(parser) -> None:
-    """The ``--trajectory PATH.json`` option of commands that move along a scene's trajectory."""
-    parser.add_argument("--trajectory", type=Path, default=None,
-                        help="trajectory JSON ({'waypoints': [[x_m, y_m, yaw_deg], ...], "
-                             "'speed_m_s', 'yaw_rate_deg_s'}; default: the one in the scene's "
-                             "ground_truth.json)")
-
-
-def trajectory_from_args(args) -> Trajectory:
-    """``args.trajectory`` if given, else the default trajectory of ``args.scene``."""
-    if args.trajectory is not None:
-        return Trajectory.from_file(args.trajectory)
-    return Trajectory.from_scene(args.scene)

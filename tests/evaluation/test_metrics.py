@@ -2,7 +2,6 @@
 
 import json
 import warnings
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -13,10 +12,10 @@ from mitsonar.data.io import write_ply
 from mitsonar.evaluation.metrics import (Scores, error_jumps, evaluate, point_to_mesh, sample_surface,
                               visible_from)
 from mitsonar.scene.loading import SceneError, scene_mesh
-from conftest import rectangle_xml
+from helpers import rectangle_xml
 from mitsonar.scene.loading import material_xml
+from helpers import SCENES
 
-SCENES = Path(__file__).resolve().parent.parent / "scenes"
 TRANSMITTING = {"dielectric", "thindielectric", "roughdielectric"}
 
 

@@ -13,7 +13,7 @@ import pytest
 import mitsonar
 from mitsonar.physics.beampattern import array_factor, main_lobe_width
 from mitsonar.frames import direction_from_fov_angles
-from conftest import BROADSIDE, IDENTITY, rectangle_xml, sphere_xml, write_scene
+from helpers import BROADSIDE, IDENTITY, rectangle_xml, sphere_xml, write_scene
 from mitsonar.scene.loading import material_xml
 from mitsonar.evaluation.reference import image_paths, plane_images
 

@@ -9,7 +9,7 @@ from mitsonar.sensors.baselines import (DepthCamera, DepthCameraModel, Lidar, Li
 from mitsonar.frames import SENSOR_MOUNT_TRANSLATION
 from mitsonar.evaluation.metrics import evaluate
 from mitsonar.scene.loading import scene_mesh
-from conftest import rectangle_xml
+from helpers import rectangle_xml
 from mitsonar.scene.loading import material_xml
 
 #: Box room: x in [-3, 3], y in [-2, 2], z in [0, 2.5] [m]; rectangles overlap at the edges.

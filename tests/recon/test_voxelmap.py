@@ -342,7 +342,7 @@ def test_checkerboard_wall_gives_voxels_with_the_colours_of_its_squares(scene_fi
     rough wall 2.1 m ahead with a red/blue checkerboard of 1 m squares. The expected colour of each
     voxel is the texture (Mitsuba's own checkerboard) at the wall point the camera sees there;
     voxels within 6 cm of a square's edge (voxel size + footprint) are not judged."""
-    from conftest import rectangle_xml
+    from helpers import rectangle_xml
 
     from mitsonar.recon.repeated import RepeatedMapSpec, map_repeated
     from mitsonar.scene.loading import mitsuba
@@ -386,7 +386,7 @@ def test_checkerboard_wall_gives_voxels_with_the_colours_of_its_squares(scene_fi
 
 def test_repeated_frames_are_spread_by_the_interval(scene_file):
     """Frame k starts (pose, camera image) at k x interval; shorter than a frame is refused."""
-    from conftest import rectangle_xml
+    from helpers import rectangle_xml
 
     from mitsonar.recon.repeated import RepeatedMapSpec, map_repeated
     from mitsonar.sensors.ofdm_sonar import pose_along

@@ -13,8 +13,9 @@ import numpy as np
 import pytest
 
 from mitsonar.data.dataset import DatasetError, DatasetSpec, _Renderer, open_dataset, render_dataset
+from helpers import SCENES
 
-ROOM = str(Path(__file__).resolve().parents[1] / "scenes" / "room_glass" / "scene.xml")
+ROOM = str(SCENES / "room_glass" / "scene.xml")
 # Two samples, three beams each, tiny images: seconds, not minutes.
 SPEC = DatasetSpec(ROOM, period=2.0, scan_step=np.radians(30), image_width=24, spp=2, max_samples=2)
 

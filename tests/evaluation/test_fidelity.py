@@ -6,6 +6,7 @@ import pytest
 import mitsonar
 from mitsonar.evaluation.fidelity import PRESETS, choose_fidelity, fidelity
 from mitsonar.scene.loading import load_scene
+from helpers import SCENES
 
 
 def test_presets_set_the_knobs_and_keep_the_noise_density():
@@ -23,7 +24,7 @@ def test_presets_set_the_knobs_and_keep_the_noise_density():
 def test_a_wall_at_normal_incidence_needs_only_the_draft_level(scene_file):
     """A specular wall is converged with the coarsest grid: the choice stops at 'draft' (depths
     agree with 'fine' to well under 1 mm)."""
-    from conftest import IDENTITY, rectangle_xml
+    from helpers import IDENTITY, rectangle_xml
     from mitsonar.scene.loading import material_xml
 
     wall = load_scene(scene_file("wall", material_xml("w", preset="glass", scattering=0.0),
@@ -38,11 +39,10 @@ def test_diffuse_scene_judged_against_the_ground_truth():
     """room_glass: the draft and standard levels pick different diffuse reflectors beam by beam
     (speckle realisations of different ray grids: depths centimetres apart), yet their points lie
     as close to the true surfaces and they detect as many beams, so the choice stops at draft."""
-    from pathlib import Path
 
     from mitsonar.sensors.trajectory import sensor_poses
 
-    path = Path(__file__).resolve().parents[1] / "scenes" / "room_glass" / "scene.xml"
+    path = SCENES / "room_glass" / "scene.xml"
     trajectory = mitsonar.Trajectory.from_scene(path)
     poses = sensor_poses(trajectory.poses_at(np.linspace(0, trajectory.duration, 5)[1:-1]))
     directions = mitsonar.ArrayGeometry().fov_grid(np.radians(10.0))

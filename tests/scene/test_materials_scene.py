@@ -7,7 +7,7 @@ import pytest
 
 import mitsonar
 from mitsonar.scene.loading import DefaultMaterialWarning, SceneError
-from conftest import rectangle_xml
+from helpers import rectangle_xml
 from mitsonar.scene.loading import material_xml
 
 Z_AIR = mitsonar.Medium().impedance

@@ -8,7 +8,7 @@ import pytest
 import mitsonar
 from mitsonar import _native
 from mitsonar.cli import main
-from conftest import rectangle_xml
+from helpers import rectangle_xml
 from mitsonar.scene.loading import material_xml
 
 

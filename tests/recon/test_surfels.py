@@ -10,7 +10,7 @@ from mitsonar.recon.surfels import (CheckPings, PlaneGroups, PoseScan, SurfelSet
                               group_surfels, grow_planes, map_surfels, region_labels,
                               shadow_segments, verify)
 from mitsonar.scene.loading import material_xml, spanned_rectangle_xml
-from conftest import write_scene
+from helpers import write_scene
 
 
 def test_verification_rejects_a_surfel_straddling_two_planes():
