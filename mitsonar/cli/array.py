@@ -7,9 +7,10 @@ import time
 from pathlib import Path
 
 from mitsonar.data.io import write_json
-from mitsonar.design.array_design import (BeamCriteria, GASettings, default_layout_path, design_arrays,
-                                          evaluate_layout, format_summary, layout_record, uniform_pair)
+from mitsonar.design.evaluation import BeamCriteria, evaluate_layout, uniform_pair
 from mitsonar.design.figures import make_figures, metrics_rows
+from mitsonar.design.genetic import GASettings, design_arrays
+from mitsonar.design.record import default_layout_path, format_summary, layout_record
 
 
 def add_cli(subparsers) -> None:

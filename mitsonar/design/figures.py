@@ -23,8 +23,8 @@ from pathlib import Path
 
 import numpy as np
 
-from mitsonar.design.array_design import (BeamCriteria, default_layout_path, evaluate_layout, load_layout_file,
-                           uniform_pair)
+from mitsonar.design.evaluation import BeamCriteria, evaluate_layout, uniform_pair
+from mitsonar.design.record import default_layout_path, load_layout_file
 from mitsonar.physics.beampattern import steered_patterns
 from mitsonar.frames import direction_from_fov_angles
 from mitsonar.data.io import atomic_path

@@ -8,9 +8,10 @@ import pytest
 
 from mitsonar import ArrayGeometry, ArrayLayout, SonarConfig
 from mitsonar.physics.array import APERTURE, MIN_SPACING
-from mitsonar.design.array_design import (DEFAULT_BASELINE, BeamCriteria, GASettings, LatticeObjective,
-                                   _repair, default_layout_path, design_arrays, evaluate_layout,
-                                   load_layout_file, min_joint_spacing, uniform_pair)
+from mitsonar.design.evaluation import BeamCriteria, evaluate_layout, uniform_pair
+from mitsonar.design.genetic import (DEFAULT_BASELINE, GASettings, LatticeObjective, _repair,
+                                     design_arrays, min_joint_spacing)
+from mitsonar.design.record import default_layout_path, load_layout_file
 
 #: A few seconds: tiny population, few generations, coarse lattice.
 TINY = dict(population=8, generations=4, lattice_step=0.03, elite=2)

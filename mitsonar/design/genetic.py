@@ -6,9 +6,9 @@ view. A uniform 5x5 layout at 2.5 cm pitch (about 2.9 wavelengths at 40 kHz) has
 lobes at sin(theta) = lambda / d = 0.34 (20 deg) from the beam, inside a 60 x 40 deg field of view.
 
 Here the transmit and the receive layout are designed together, because they are interleaved on
-one board (see :mod:`mitsonar.physics.array`): the receive layout sits ``baseline`` to the right of the
-transmit origin, each layout's 25 centres stay within +-5 cm of its own origin, and no two of the
-50 elements come closer than the 10 mm can diameter. The genome is the 50 element centres.
+one board (see :mod:`mitsonar.physics.array`): the receive layout sits ``baseline`` to the right
+of the transmit origin, each layout's 25 centres stay within +-5 cm of its own origin, and no two
+of the 50 elements come closer than the 10 mm can diameter. The genome is the 50 element centres.
 
 Objective (minimised, dB):
 
@@ -17,7 +17,8 @@ Objective (minimised, dB):
 * PSLL_tx, PSLL_rx: the worst one-way PSLL of each array over steering directions covering the
   field of view (every other point of the direction-cosine lattice below, about 1.2 deg apart),
   side lobes searched at all lattice directions inside the field of view, element directivity
-  included (the main-lobe disc is :attr:`BeamCriteria.main_lobe_radius`, see
+  included (the main-lobe disc is
+  :attr:`mitsonar.design.evaluation.BeamCriteria.main_lobe_radius`, see
   :mod:`mitsonar.physics.beampattern`).
 * w_k: the four broadside 3 dB widths (transmit and receive, horizontal and vertical cuts) of the
   one-way patterns; the paper's main lobe is about 5 deg wide.
@@ -37,9 +38,9 @@ maximum over the difference lattice: max_q |AF(q)| W(q), where W(q) is the large
 ratio D(u) / D(u_s) over the pairs with u - u_s = q outside the main lobe (precomputed once). The
 array factor on that lattice is one matrix product per layout (the phase separates in x and y),
 done by ``einsum`` in single precision: many small products through a multi-threaded BLAS stall on
-a busy machine. The reported numbers come from the exact evaluation (:func:`evaluate_layout`) on
-finer grids and exact steering directions; the lattice objective agrees with it to a few tenths
-of a dB.
+a busy machine. The reported numbers come from the exact evaluation
+(:func:`mitsonar.design.evaluation.evaluate_layout`) on finer grids and exact steering directions;
+the lattice objective agrees with it to a few tenths of a dB.
 
 GA: population of layouts, seeded from the uniform 5x5 pair plus Gaussian jitter (the uniform pair
 itself is kept as one individual); elitism; tournament selection; per-element uniform crossover;
@@ -55,7 +56,8 @@ Usage::
     mitsonar array design --seed 1            # writes mitsonar/physics/array_layout.json
     mitsonar array plot --out out/array       # figures and tables (mitsonar.design.figures)
 
-    from mitsonar.design.array_design import GASettings, design_arrays, evaluate_layout
+    from mitsonar.design.evaluation import evaluate_layout
+    from mitsonar.design.genetic import GASettings, design_arrays
     result = design_arrays(GASettings(seed=1))
     metrics = evaluate_layout(result.tx.positions, result.rx.positions)
     metrics.worst_psll_db("one_way"), metrics.broadside_width["tx"]   # dB, rad
@@ -63,20 +65,15 @@ Usage::
 
 from __future__ import annotations
 
-import json
 import time
-from dataclasses import asdict, dataclass, field
-from importlib import resources
-from pathlib import Path
+from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from mitsonar.physics.array import APERTURE, LAYOUT_FILE, MIN_SPACING, ArrayGeometry, ArrayLayout
-from mitsonar.physics.beampattern import (cut_directions, fov_grid, in_fov, main_lobe_widths, one_way_pattern,
-                          pair_side_lobe_levels)
-from mitsonar.physics.medium import Medium
-from mitsonar.physics.transducer import Transducer
-from mitsonar.validation import check_positive, check_range
+from mitsonar.design.evaluation import BeamCriteria, named_units, uniform_pair
+from mitsonar.physics.array import APERTURE, MIN_SPACING, ArrayGeometry, ArrayLayout
+from mitsonar.physics.beampattern import in_fov
+from mitsonar.validation import check_range
 
 #: Distance from the transmit to the receive array origin along sensor +x [m] (half the uniform
 #: pitch: the two uniform grids interleave 12.5 mm apart).
@@ -85,64 +82,6 @@ DEFAULT_BASELINE = 0.0125
 POSITION_RESOLUTION = 1e-6
 #: Elements per layout (5 x 5).
 ELEMENTS = 25
-
-
-@dataclass(frozen=True)
-class BeamCriteria:
-    """What a good layout is, and the grids the exact evaluation uses. SI units, radians.
-
-    Attributes:
-        fov_horizontal: full horizontal field of view [rad].
-        fov_vertical: full vertical field of view [rad].
-        main_lobe_radius: angular radius of the main lobe excluded from the side-lobe search
-            [rad] (6 deg: about the first-null radius of a filled aperture whose 3 dB width is
-            5 deg, 1.2x that width).
-        target_width: broadside 3 dB width aimed at [rad].
-        width_tolerance: half-width of the accepted band around ``target_width`` [rad].
-        frequency: design frequency [Hz].
-        medium: air (sets the wavelength).
-        transducer: element model (piston directivity).
-        direction_step: grid step of the directions searched for side lobes, exact evaluation [rad].
-        steering_step: grid step of the steering directions over the field of view, exact
-            evaluation [rad] (edges included).
-    """
-
-    fov_horizontal: float = np.radians(60.0)
-    fov_vertical: float = np.radians(40.0)
-    main_lobe_radius: float = np.radians(6.0)
-    target_width: float = np.radians(5.0)
-    width_tolerance: float = np.radians(0.5)
-    frequency: float = 40_000.0
-    medium: Medium = field(default_factory=Medium)
-    transducer: Transducer = field(default_factory=Transducer)
-    direction_step: float = np.radians(0.25)
-    steering_step: float = np.radians(2.5)
-
-    def __post_init__(self):
-        for name in ("fov_horizontal", "fov_vertical"):
-            check_range(f"BeamCriteria.{name} [rad]", getattr(self, name), 1e-3, np.radians(170.0))
-        check_range("BeamCriteria.main_lobe_radius [rad]", self.main_lobe_radius, 1e-3, np.radians(45))
-        check_range("BeamCriteria.target_width [rad]", self.target_width, 1e-3, np.radians(45))
-        check_range("BeamCriteria.width_tolerance [rad]", self.width_tolerance, 0.0, self.target_width)
-        check_positive("BeamCriteria.frequency [Hz]", self.frequency)
-        check_range("BeamCriteria.direction_step [rad]", self.direction_step, 1e-4, np.radians(5))
-        check_range("BeamCriteria.steering_step [rad]", self.steering_step, 1e-3, np.radians(30))
-
-    @property
-    def wavenumber(self) -> float:
-        """k [rad/m] at the design frequency."""
-        return float(self.medium.wavenumber(self.frequency))
-
-    @property
-    def wavelength(self) -> float:
-        """lambda [m] at the design frequency."""
-        return self.medium.speed_of_sound / self.frequency
-
-    def to_dict(self) -> dict:
-        return _named_units(asdict(self), {"fov_horizontal": "rad", "fov_vertical": "rad",
-                                           "main_lobe_radius": "rad", "target_width": "rad",
-                                           "width_tolerance": "rad", "frequency": "Hz",
-                                           "direction_step": "rad", "steering_step": "rad"})
 
 
 @dataclass(frozen=True)
@@ -201,7 +140,8 @@ class GASettings:
         if not 1 <= self.elite < self.population:
             raise ValueError(f"GASettings.elite must lie in [1, population), got {self.elite}")
         if not 1 <= self.tournament <= self.population:
-            raise ValueError(f"GASettings.tournament must lie in [1, population], got {self.tournament}")
+            raise ValueError("GASettings.tournament must lie in [1, population], "
+                             f"got {self.tournament}")
         if self.steering_stride < 1 or self.repair_iterations < 1:
             raise ValueError("GASettings.steering_stride and repair_iterations must be >= 1")
         for name in ("crossover_probability", "mutation_probability", "relocate_probability"):
@@ -214,7 +154,7 @@ class GASettings:
 
     def to_dict(self) -> dict:
         """Settings for the JSON record, keys carrying their unit (``mutation_start_m``)."""
-        return _named_units(asdict(self), _GA_UNITS)
+        return named_units(asdict(self), _GA_UNITS)
 
     @classmethod
     def from_dict(cls, data: dict) -> "GASettings":
@@ -227,25 +167,7 @@ _GA_UNITS = {"mutation_start": "m", "mutation_end": "m", "init_jitter": "m",
              "width_penalty": "db_per_rad", "spacing_margin": "m"}
 
 
-def _named_units(data: dict, units: dict) -> dict:
-    """Rename keys to carry their unit (``frequency`` -> ``frequency_hz``) for the JSON record."""
-    out = {}
-    for key, value in data.items():
-        if isinstance(value, dict):
-            value = {k: float(v) for k, v in value.items()}
-        elif isinstance(value, (float, np.floating)):
-            value = float(value)
-        out[f"{key}_{units[key]}" if key in units else key] = value
-    return out
-
-
 # ---- constraints ---------------------------------------------------------------------------------
-
-def uniform_pair(pitch: float = 0.025) -> np.ndarray:
-    """(2, 25, 2) the uniform 5x5 transmit and receive layouts (each relative to its origin) [m]."""
-    grid = ArrayLayout.uniform(5, pitch).positions
-    return np.stack([grid, grid])
-
 
 def _offsets(baseline: float) -> np.ndarray:
     """(2, 1, 2) origin of the transmit and the receive layout in the sensor plane [m]."""
@@ -366,7 +288,7 @@ class LatticeObjective:
         return (af * self.weight).max(axis=(1, 2)).astype(float).reshape(lead)
 
     def broadside_widths(self, positions) -> np.ndarray:
-        """One-way broadside 3 dB widths [rad] (..., 2) (horizontal, vertical) of layouts (..., N, 2).
+        """Broadside one-way 3 dB widths [rad] (..., 2) (horizontal, vertical), layouts (..., N, 2).
 
         Exact cuts (u_x = sin h at v = 0, u_y = sin v at h = 0), linear interpolation of the
         half-power crossing; 2 asin(t_max) when the lobe does not drop that far.
@@ -397,7 +319,7 @@ class LatticeObjective:
         return psll_db + self.settings.width_penalty * excess.max(axis=(1, 2)), psll_db, widths
 
 
-# ---- the genetic algorithm ------------------------------------------------------------------------
+# ---- the genetic algorithm -----------------------------------------------------------------------
 
 @dataclass(frozen=True)
 class DesignResult:
@@ -462,7 +384,8 @@ def design_arrays(settings: GASettings = GASettings(), criteria: BeamCriteria = 
     n_child = s.population - s.elite
     for g in range(s.generations):  # the loop over generations; everything inside is batched
         order = np.argsort(fit, kind="stable")
-        elite, elite_fit, elite_psll = pop[order[:s.elite]], fit[order[:s.elite]], psll[order[:s.elite]]
+        top = order[:s.elite]
+        elite, elite_fit, elite_psll = pop[top], fit[top], psll[top]
         cand = rng.integers(0, s.population, size=(2, n_child, s.tournament))
         winner = np.take_along_axis(cand, np.argmin(fit[cand], axis=-1)[..., None], -1)[..., 0]
         pa, pb = pop[winner[0]], pop[winner[1]]
@@ -493,176 +416,3 @@ def design_arrays(settings: GASettings = GASettings(), criteria: BeamCriteria = 
                         baseline=float(baseline), settings=s, criteria=criteria,
                         objective_db=np.array(history), psll_db=float(best_psll[0]),
                         seconds=time.perf_counter() - t0)
-
-
-# ---- exact evaluation -----------------------------------------------------------------------------
-
-@dataclass(frozen=True)
-class LayoutMetrics:
-    """Exact beam metrics of a transmit/receive pair over the field of view.
-
-    Attributes:
-        steering_horizontal: (H,) horizontal angles of the steering grid [rad].
-        steering_vertical: (V,) vertical angles of the steering grid [rad].
-        psll_db: name ('tx', 'rx', 'two_way') -> (V, H) PSLL of the beam steered there [dB].
-        width: name -> (V, H, 2) 3 dB widths (horizontal, vertical cut) of that beam [rad].
-        broadside_width: name -> (2,) broadside 3 dB widths (horizontal, vertical) [rad], from a
-            0.01 deg cut.
-    """
-
-    steering_horizontal: np.ndarray
-    steering_vertical: np.ndarray
-    psll_db: dict
-    width: dict
-    broadside_width: dict
-
-    def worst_psll_db(self, name: str) -> float:
-        """Worst PSLL over the steering grid [dB] of 'tx', 'rx', 'two_way' or 'one_way' (the
-        worse of transmit and receive)."""
-        if name == "one_way":
-            return max(self.worst_psll_db("tx"), self.worst_psll_db("rx"))
-        return float(np.max(self.psll_db[name]))
-
-    def broadside_psll_db(self, name: str) -> float:
-        """PSLL of the broadside beam [dB]."""
-        iv = int(np.argmin(np.abs(self.steering_vertical)))
-        ih = int(np.argmin(np.abs(self.steering_horizontal)))
-        return float(self.psll_db[name][iv, ih])
-
-    def to_dict(self) -> dict:
-        """Summary for the JSON record (dB and degrees, labelled)."""
-        out = {"worst_psll_db": {n: round(self.worst_psll_db(n), 2)
-                                 for n in ("tx", "rx", "two_way", "one_way")},
-               "broadside_psll_db": {n: round(self.broadside_psll_db(n), 2)
-                                     for n in ("tx", "rx", "two_way")},
-               "broadside_width_3db_deg": {n: {"horizontal": round(float(np.degrees(w[0])), 3),
-                                               "vertical": round(float(np.degrees(w[1])), 3)}
-                                           for n, w in self.broadside_width.items()},
-               "max_width_3db_over_fov_deg": {n: (round(float(np.degrees(np.nanmax(w))), 3)
-                                                  if np.any(np.isfinite(w)) else None)
-                                              for n, w in self.width.items()}}
-        return out
-
-
-def evaluate_layout(tx_positions, rx_positions, criteria: BeamCriteria = BeamCriteria(),
-                    widths_over_fov: bool = True) -> LayoutMetrics:
-    """Exact PSLL and 3 dB widths of a transmit/receive pair, steered over the field of view.
-
-    Steering directions: a grid of ``criteria.steering_step`` over the field of view (edges
-    included). Side lobes are searched over a grid of ``criteria.direction_step`` over the field
-    of view. Widths: horizontal and vertical cuts through each steered beam (+-12 deg, 0.1 deg
-    samples; skipped, NaN, when ``widths_over_fov`` is False), and 0.01 deg cuts at broadside.
-    """
-    c = criteria
-    k = c.wavenumber
-    h, v, steers = fov_grid(c.fov_horizontal, c.fov_vertical, c.steering_step)
-    _, _, dirs = fov_grid(c.fov_horizontal, c.fov_vertical, c.direction_step)
-    flat = steers.reshape(-1, 3)
-    ratio = pair_side_lobe_levels(tx_positions, rx_positions, flat, dirs.reshape(-1, 3),
-                                  c.transducer, k, c.main_lobe_radius)
-    psll = {n: 20 * np.log10(np.maximum(r, 1e-12)).reshape(len(v), len(h)) for n, r in ratio.items()}
-
-    def widths(steer, half_span, count):
-        angles, u = cut_directions(steer, half_span, count)
-        s4 = steer[:, None, None, :]
-        tx = one_way_pattern(tx_positions, s4, u, c.transducer, k)
-        rx = one_way_pattern(rx_positions, s4, u, c.transducer, k)
-        return {n: main_lobe_widths(angles, p) for n, p in (("tx", tx), ("rx", rx), ("two_way", tx * rx))}
-
-    if widths_over_fov:
-        width = {n: w.reshape(len(v), len(h), 2)
-                 for n, w in widths(flat, np.radians(12.0), 241).items()}
-    else:
-        width = {n: np.full((len(v), len(h), 2), np.nan) for n in psll}
-    broad = {n: w[0] for n, w in widths(np.array([[0.0, 0.0, 1.0]]), np.radians(10.0), 2001).items()}
-    return LayoutMetrics(h, v, psll, width, broad)
-
-
-# ---- the shipped record ---------------------------------------------------------------------------
-
-def default_layout_path() -> Path:
-    """Path of the shipped layout file, mitsonar/physics/array_layout.json."""
-    return Path(str(resources.files("mitsonar.physics").joinpath(LAYOUT_FILE)))
-
-
-def layout_record(result: DesignResult, metrics: LayoutMetrics, uniform: LayoutMetrics) -> dict:
-    """The JSON record of a design: positions, metrics (optimised and uniform), seed, settings."""
-    def pos(layout):
-        return [[round(float(x), 6), round(float(y), 6)] for x, y in layout.positions]
-
-    s = result.settings
-    return {
-        "name": f"GA-optimised interleaved 5x5 pair (seed {s.seed})",
-        "note": ("Written by `mitsonar array design` (mitsonar.design.array_design). Positions in metres, "
-                 "tx relative to the transmit origin (sensor origin), rx relative to the receive "
-                 "origin at (baseline, 0) in the sensor plane. Metrics: exact evaluation over the "
-                 "field of view (one-way PSLL of each array, two-way PSLL of the pair, 3 dB widths "
-                 "of the one-way patterns)."),
-        "baseline": result.baseline,
-        "tx": pos(result.tx),
-        "rx": pos(result.rx),
-        "metrics": metrics.to_dict(),
-        "uniform_metrics": uniform.to_dict(),
-        "design": {
-            "method": "genetic algorithm over the 50 element centres, joint spacing constraint",
-            "seed": s.seed,
-            "ga_settings": s.to_dict(),
-            "criteria": criteria_record(result.criteria),
-            "min_spacing_m": MIN_SPACING,
-            "aperture_m": APERTURE,
-            "fast_objective_worst_psll_db": round(result.psll_db, 3),
-            "objective_db_history": [round(float(v), 3) for v in result.objective_db],
-            "runtime_s": round(result.seconds, 1),
-        },
-    }
-
-
-def criteria_record(criteria: BeamCriteria) -> dict:
-    """Criteria for the JSON record; every key carries its unit."""
-    d = criteria.to_dict()
-    d["medium"] = _named_units(d["medium"], {"temperature": "K", "relative_humidity": "percent",
-                                             "pressure": "Pa"})
-    d["transducer"] = _named_units(d["transducer"], {"radius": "m", "resonance_frequency": "Hz",
-                                                     "bandwidth_6db": "Hz", "source_amplitude": "Pa"})
-    d["wavelength_m"] = round(criteria.wavelength, 7)
-    d["speed_of_sound_m_per_s"] = round(criteria.medium.speed_of_sound, 4)
-    return d
-
-
-def load_layout_file(path) -> tuple[ArrayLayout, ArrayLayout, float, dict]:
-    """(tx, rx, baseline, whole record) from a layout JSON file; clear errors on bad files."""
-    path = Path(path)
-    try:
-        data = json.loads(path.read_text())
-        tx = ArrayLayout(np.asarray(data["tx"], dtype=float), name=f"{data.get('name', path.name)} (tx)")
-        rx = ArrayLayout(np.asarray(data["rx"], dtype=float), name=f"{data.get('name', path.name)} (rx)")
-        baseline = float(data["baseline"])
-    except FileNotFoundError:
-        raise
-    except (OSError, json.JSONDecodeError, KeyError, TypeError) as err:
-        raise ValueError(f"{path}: not a layout file ({type(err).__name__}: {err})") from None
-    ArrayGeometry(tx=tx, rx=rx, baseline=baseline)  # validates the joint spacing
-    return tx, rx, baseline, data
-
-
-def format_summary(metrics: LayoutMetrics, uniform: LayoutMetrics, result: DesignResult | None = None) -> str:
-    """Human-readable comparison of uniform and optimised layouts (degrees and dB)."""
-    lines = []
-    if result is not None:
-        s = result.settings
-        lines.append(f"GA: seed {s.seed}, population {s.population}, generations {s.generations}, "
-                     f"{result.seconds:.0f} s.")
-    fov = np.degrees([np.ptp(uniform.steering_horizontal), np.ptp(uniform.steering_vertical)])
-    lines.append(f"Worst PSLL over the {fov[0]:.0f} x {fov[1]:.0f} deg field of view (beams steered "
-                 "over the field of view, side lobes inside it, element directivity included):")
-    for label, m in (("uniform 5x5 @ 25 mm", uniform), ("optimised", metrics)):
-        lines.append(f"  {label:20s} transmit {m.worst_psll_db('tx'):6.2f} dB, receive "
-                     f"{m.worst_psll_db('rx'):6.2f} dB, two-way {m.worst_psll_db('two_way'):6.2f} dB")
-    lines.append(f"  improvement (one-way, worse of TX/RX): "
-                 f"{uniform.worst_psll_db('one_way') - metrics.worst_psll_db('one_way'):.2f} dB")
-    lines.append("Broadside 3 dB width (horizontal x vertical):")
-    for label, m in (("uniform 5x5 @ 25 mm", uniform), ("optimised", metrics)):
-        w = {n: np.degrees(m.broadside_width[n]) for n in ("tx", "rx")}
-        lines.append(f"  {label:20s} transmit {w['tx'][0]:.2f} x {w['tx'][1]:.2f} deg, receive "
-                     f"{w['rx'][0]:.2f} x {w['rx'][1]:.2f} deg")
-    return "\n".join(lines)
