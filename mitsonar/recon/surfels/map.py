@@ -1,0 +1,238 @@
+"""The surfel map of a set of poses (:class:`SurfelMap`): the registered surfels of all poses
+grouped into global planes, shadow lines removed, the planes refined and grown again in every
+pose's image (:func:`build_map`); :func:`map_surfels` scans the poses, builds the map, fires the
+check pings and builds it again."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from mitsonar.recon.surfels.growing import (_region_at, camera_rays, check_pose, grow_planes,
+                                            intersect_planes, segment_sides, shadow_segments)
+from mitsonar.recon.surfels.planes import PlaneGroups, _on_planes, group_surfels, refine_planes
+from mitsonar.recon.surfels.scanning import PoseScan, scan_pose
+from mitsonar.recon.surfels.settings import SurfelSettings
+from mitsonar.sensors.camera import CameraModel, CameraRenderer
+from mitsonar.sensors.sonar import Sonar
+
+#: Why surfels were not registered (keys of :attr:`SurfelMap.rejected`).
+REJECTIONS = ("no_echo", "verification", "shadow_line")
+
+
+@dataclass(frozen=True)
+class SurfelMap:
+    """The surfel map of a set of poses.
+
+    Attributes:
+        scans: per pose what was seen and measured.
+        groups: global plane groups of the registered surfels.
+        surfel_pose: (k,) pose index of each registered surfel; surfel_index: (k,) its index
+            among that pose's candidates.
+        surfel_points: (k, 4, 3) their measured points [m].
+        surfel_triangles: (k, 3, 3) their image triangles back-projected onto their group plane
+            [m].
+        vertices: (V, 3), triangles: (F, 3), plane: (F,) the map mesh (union over poses).
+        shadow: per pose, (n,) True for segments removed as shadow lines.
+        rejected: counts of candidates not registered, by reason (:data:`REJECTIONS`).
+        meshes: per pose, the planes grown in its image
+            (:class:`~mitsonar.recon.surfels.growing.PoseMesh`).
+        settings: the settings the map was built with.
+    """
+
+    scans: list
+    groups: PlaneGroups
+    surfel_pose: np.ndarray
+    surfel_index: np.ndarray
+    surfel_points: np.ndarray
+    surfel_triangles: np.ndarray
+    vertices: np.ndarray
+    triangles: np.ndarray
+    plane: np.ndarray
+    shadow: list
+    rejected: dict = field(default_factory=dict)
+    meshes: list = field(default_factory=list)
+    settings: SurfelSettings = SurfelSettings()
+
+    def sample(self, spacing: float = 0.01, seed: int = 0):
+        """Points (M, 3) [m] sampled uniformly on the mesh, one per ``spacing``^2 (metrics'
+        :func:`~mitsonar.evaluation.metrics.sample_surface`), and their plane group (M,)."""
+        from mitsonar.evaluation.metrics import sample_surface
+        from mitsonar.scene.loading import SceneMesh
+
+        n = len(self.groups)
+        mesh = SceneMesh(self.vertices, self.triangles, self.plane,
+                         [f"plane{g}" for g in range(n)], np.zeros(n, int), np.zeros(n, bool), [])
+        samples = sample_surface(mesh, spacing, seed)
+        return samples.points, self.plane[samples.triangle]
+
+
+def _register(scans, shadow):
+    """Registered surfels of all poses, minus those built on a shadow segment: pose (k,),
+    candidate index (k,), points (k, 4, 3), viewpoints (k, 3), fill points (k, m, 3)."""
+    pose_ids, index = [], []
+    for p, (scan, removed) in enumerate(zip(scans, shadow)):
+        ok = scan.accepted.copy()
+        if len(scan.segment_pairs):
+            ok &= ~removed[scan.segment_pairs].any(axis=1)
+        pose_ids.append(np.full(int(ok.sum()), p))
+        index.append(np.nonzero(ok)[0])
+    pose_ids, index = np.concatenate(pose_ids).astype(int), np.concatenate(index).astype(int)
+    points = np.array([scans[p].points_world[i] for p, i in zip(pose_ids, index)]).reshape(-1, 4, 3)
+    view = np.array([scans[p].pose.translation for p in pose_ids]).reshape(-1, 3)
+    m = max((s.fill_world.shape[1] for s in scans if s.fill_world is not None), default=0)
+    extra = np.full((len(pose_ids), m, 3), np.nan)
+    for k, (p, i) in enumerate(zip(pose_ids, index)):
+        if scans[p].fill_world is not None:
+            extra[k, :scans[p].fill_world.shape[1]] = scans[p].fill_world[i]
+    return pose_ids, index, points, view, extra
+
+
+def _check_points(scans, meshes, groups: PlaneGroups, settings: SurfelSettings):
+    """Check-ping points that join the plane fits: points (c, 3) [m], group (c,) and the
+    sensor position they were measured from (c, 3) [m]. A check point joins the nearest plane
+    claiming its pixel's region that it lies on
+    (:func:`~mitsonar.recon.surfels.planes._on_planes`)."""
+    out, label, view = [np.zeros((0, 3))], [np.zeros(0, int)], [np.zeros((0, 3))]
+    for scan, mesh in zip(scans, meshes):
+        if scan.checks is None or len(groups) == 0:
+            continue
+        heard = np.all(np.isfinite(scan.checks.points), axis=1)
+        pts = scan.checks.points[heard]
+        region = _region_at(mesh.regions, scan.checks.pixels[heard])
+        claimed = np.zeros((len(pts), len(groups)), dtype=bool)
+        claimed[region >= 0] = mesh.region_groups[region[region >= 0]] > 0
+        claimed &= _on_planes(pts, scan.pose.translation, groups, settings)
+        off = np.where(claimed, np.abs(pts @ groups.normals.T - groups.offsets), np.inf)
+        g = np.argmin(off, axis=1) if len(pts) else np.zeros(0, int)
+        near = np.isfinite(np.take_along_axis(off, g[:, None], 1)[:, 0])
+        out.append(pts[near])
+        label.append(g[near])
+        view.append(np.broadcast_to(scan.pose.translation, (int(near.sum()), 3)))
+    return np.concatenate(out), np.concatenate(label), np.concatenate(view)
+
+
+def build_map(scans, settings: SurfelSettings = SurfelSettings()) -> SurfelMap:
+    """Group the registered surfels of all poses, remove shadow lines, grow every pose's regions
+    on the global planes and join the meshes (package docstring)."""
+    shadow = [np.zeros(len(s.segments), dtype=bool) for s in scans]
+    for _ in range(2):  # group, find shadow lines, then once more without them
+        pose_ids, index, points, view, extra = _register(scans, shadow)
+        groups = group_surfels(points, view, settings, extra)
+        meshes = [grow_planes(s, s.segments[~r], groups, points, settings)
+                  for s, r in zip(scans, shadow)]
+        if not settings.remove_shadows:
+            break
+        found = [shadow_segments(replace_segments(s, ~r), m.regions, m.region_groups,
+                                 settings.shadow_offset) for s, r, m in zip(scans, shadow, meshes)]
+        new = [r.copy() for r in shadow]
+        for r, f in zip(new, found):
+            r[np.nonzero(~r)[0][f]] = True
+        if all(np.array_equal(a, b) for a, b in zip(new, shadow)):
+            break
+        shadow = new
+    if settings.refine and len(groups):
+        creases = []
+        for s, r, m in zip(scans, shadow, meshes):
+            segments = s.segments[~r]
+            left, right = segment_sides(segments, m.regions, m.region_groups,
+                                        settings.shadow_offset)
+            pose = s.camera.world_from_camera(s.pose)
+            creases += [(s.camera, pose, seg, a, b) for seg, a, b in zip(segments, left, right)
+                        if a >= 0 and b >= 0 and a != b]
+        every = np.concatenate([points.reshape(-1, 3), extra.reshape(-1, 3)])
+        label = np.concatenate([np.repeat(groups.label, 4),
+                                np.repeat(groups.label, extra.shape[1])])
+        seen = np.concatenate([np.repeat(view, 4, axis=0), np.repeat(view, extra.shape[1], axis=0)])
+        finite = np.all(np.isfinite(every), axis=1)
+        every, label, seen = every[finite], label[finite], seen[finite]
+        previous = None
+        for _ in range(settings.max_iterations):  # until the check points on the planes settle
+            checked, check_label, check_view = _check_points(scans, meshes, groups, settings)
+            if previous is not None and np.array_equal(previous[0], checked) and \
+                    np.array_equal(previous[1], check_label):
+                break
+            previous = checked, check_label
+            groups = refine_planes(groups, np.concatenate([every, checked]),
+                                   np.concatenate([label, check_label]),
+                                   np.concatenate([seen, check_view]), creases, settings)
+        meshes = [grow_planes(s, s.segments[~r], groups, points, settings)
+                  for s, r in zip(scans, shadow)]
+    vertices, triangles, plane, offset = [], [], [], 0
+    for m in meshes:
+        vertices.append(m.vertices)
+        triangles.append(m.triangles + offset)
+        plane.append(m.plane)
+        offset += len(m.vertices)
+    tri3d = _surfel_triangles(scans, pose_ids, index, groups)
+    rejected = {"no_echo": 0, "verification": 0, "shadow_line": 0}
+    for s, r in zip(scans, shadow):
+        rejected["no_echo"] += int(np.sum(~np.isfinite(s.residual)))
+        rejected["verification"] += int(np.sum(np.isfinite(s.residual) & ~s.accepted))
+        if len(s.segment_pairs):
+            rejected["shadow_line"] += int(np.sum(s.accepted & r[s.segment_pairs].any(axis=1)))
+    return SurfelMap(list(scans), groups, pose_ids, index, points, tri3d,
+                     np.concatenate(vertices).reshape(-1, 3),
+                     np.concatenate(triangles).reshape(-1, 3).astype(np.int64),
+                     np.concatenate(plane).astype(int), shadow, rejected, meshes, settings)
+
+
+def replace_segments(scan: PoseScan, keep) -> PoseScan:
+    """``scan`` with only the segments ``keep`` (n,) bool (pairs of dropped ones are not
+    meaningful in the result and are emptied)."""
+    return replace(scan, segments=scan.segments[np.asarray(keep, bool)],
+                   segment_pairs=np.zeros((0, 2), int), triangles=np.zeros((0, 3, 2)),
+                   points_world=np.zeros((0, 4, 3)), residual=np.zeros(0),
+                   accepted=np.zeros(0, bool), fill_world=None, checks=None)
+
+
+def _surfel_triangles(scans, pose_ids, index, groups: PlaneGroups) -> np.ndarray:
+    """(k, 3, 3) image triangles of the registered surfels back-projected onto their planes."""
+    out = np.zeros((len(pose_ids), 3, 3))
+    for k, (p, i) in enumerate(zip(pose_ids, index)):  # a few dozen surfels
+        scan = scans[p]
+        camera_pose = scan.camera.world_from_camera(scan.pose)
+        rays = camera_rays(scan.camera, camera_pose, scan.triangles[i])
+        g = groups.label[k]
+        t = intersect_planes(camera_pose.translation, rays, groups.normals[g:g + 1],
+                             groups.offsets[g:g + 1])[:, 0]
+        out[k] = camera_pose.translation + rays * t[:, None]
+    return out
+
+
+def map_surfels(sonar: Sonar, poses, odometry=None, settings: SurfelSettings = SurfelSettings(),
+                progress=None) -> SurfelMap:
+    """Surfel map from world-from-sensor ``poses`` (list of :class:`~mitsonar.frames.Pose`);
+    ``odometry`` (same length) registers the points instead of the true poses when given;
+    ``progress`` is called with each pose index (and again for each pose's check pings).
+
+    With ``settings.check_spacing`` > 0 the map is built twice: the first map's grown planes
+    are pinged from every pose (:func:`~mitsonar.recon.surfels.growing.check_pose`) and the
+    second grows each plane only where that evidence supports it
+    (:func:`~mitsonar.recon.surfels.growing._support`)."""
+    poses = list(poses)
+    odometry = poses if odometry is None else list(odometry)
+    if len(odometry) != len(poses):
+        raise ValueError(f"odometry has {len(odometry)} poses, poses {len(poses)}")
+    if not poses:
+        raise ValueError("map_surfels needs at least one pose")
+    if settings.max_range is None:
+        settings = replace(settings, max_range=sonar.config.max_range)
+    camera = CameraModel(spp=settings.spp).at_resolution(settings.image_width)
+    renderer = CameraRenderer(sonar.scene, camera)
+    scans = []
+    for k, (pose, odo) in enumerate(zip(poses, odometry)):
+        scans.append(scan_pose(sonar, renderer, pose, odo, settings, seed=settings.seed + k))
+        if progress is not None:
+            progress(k)
+    surfel_map = build_map(scans, settings)
+    if settings.check_spacing == 0 or len(surfel_map.groups) == 0:
+        return surfel_map
+    checked = []
+    for k, (pose, scan, mesh) in enumerate(zip(poses, scans, surfel_map.meshes)):
+        seed = int(np.random.SeedSequence([settings.seed + k, 2]).generate_state(1)[0])
+        checked.append(check_pose(sonar, pose, scan, mesh, settings, seed))
+        if progress is not None:
+            progress(k)
+    return build_map(checked, settings)

@@ -1,0 +1,312 @@
+"""Planes of surfel scanning: the plane through a surfel's points, least-squares planes (14)(15)
+and their normals' standard errors, the expected error of a point off its plane, plane groups of
+surfels (:func:`group_surfels`) and their joint refinement with the image creases
+(:func:`refine_planes`). Arrays in, arrays out; the method and why it deviates from the paper:
+the :mod:`mitsonar.recon.surfels` docstring."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from mitsonar.recon.surfels.settings import SurfelSettings
+
+def plane_through(points) -> tuple[np.ndarray, np.ndarray]:
+    """Unit normals (k, 3) and offsets (k,) [m] (n . x = d) of the planes through the first three
+    of points (k, >=3, 3); NaN for collinear triples."""
+    p = np.asarray(points, dtype=float)
+    n = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+    norm = np.linalg.norm(n, axis=1, keepdims=True)
+    n = np.where(norm > 1e-12, n / np.maximum(norm, 1e-300), np.nan)
+    return n, np.einsum("kc,kc->k", n, p[:, 0])
+
+
+def fit_plane(points, towards=None) -> tuple[np.ndarray, float]:
+    """Least-squares plane (14)(15) of points (n >= 3, 3) [m]: the unit normal x minimising
+    |A x|^2 for the centred points A is the last right singular vector of A.
+
+    Returns (normal (3,), offset d [m]) with n . p = d on the plane; the normal points towards
+    ``towards`` (3,) [m] when given (e.g. the sensor), else its largest component is positive.
+    """
+    p = np.asarray(points, dtype=float).reshape(-1, 3)
+    if len(p) < 3:
+        raise ValueError(f"fit_plane needs at least 3 points, got {len(p)}")
+    centroid = p.mean(axis=0)
+    normal = np.linalg.svd(p - centroid, full_matrices=False)[2][-1]
+    side = (np.asarray(towards, dtype=float) - centroid) @ normal if towards is not None \
+        else normal[np.argmax(np.abs(normal))]
+    if side < 0:
+        normal = -normal
+    return normal, float(normal @ centroid)
+
+
+def _components(n: int, i, j) -> np.ndarray:
+    """Labels (n,) of the connected components of the graph with edges (i, j), numbered in
+    order of their first node (deterministic)."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    graph = coo_matrix((np.ones(len(i)), (np.asarray(i), np.asarray(j))), shape=(n, n))
+    label = connected_components(graph, directed=False)[1]
+    return _relabel(label)
+
+
+def _relabel(label) -> np.ndarray:
+    """Labels renumbered 0, 1, ... in order of first occurrence."""
+    _, first, inverse = np.unique(label, return_index=True, return_inverse=True)
+    rank = np.empty(len(first), dtype=int)
+    rank[np.argsort(first, kind="stable")] = np.arange(len(first))
+    return rank[inverse]
+
+
+def _point_sigma(points, viewpoints, normals, settings: SurfelSettings) -> np.ndarray:
+    """Expected distance [m] of points (..., 3) seen from viewpoints (..., 3) off their planes
+    with unit normals (..., 3): sqrt(``range_sigma``^2 + (r tan(``angle_sigma``) sin(theta))^2)
+    at range r and incidence theta (:class:`SurfelSettings`)."""
+    ray = points - viewpoints
+    r = np.linalg.norm(ray, axis=-1)
+    cos = np.einsum("...c,...c->...", ray, normals) / np.maximum(r, 1e-12)
+    sin = np.sqrt(np.clip(1 - cos ** 2, 0, 1))
+    return np.hypot(settings.range_sigma, r * np.tan(settings.angle_sigma) * sin)
+
+
+def _plane_stats(points, viewpoints, settings: SurfelSettings):
+    """Least-squares planes (14)(15) of u point sets (u, m, 3) [m] (NaN-padded, >= 3 points
+    each) seen from viewpoints (u, m, 3) [m].
+
+    Returns unit normals (u, 3) (unoriented), centroids (u, 3) [m] and the normals' standard
+    errors (u,) [rad]: atan(s / S2), S2 the set's second singular value (its extent across its
+    narrower in-plane direction) and s the per-point error, estimated from the residuals
+    (last singular value over sqrt(m - 3)) but not below the mean expected error
+    (:func:`_point_sigma`; four points leave one degree of freedom).
+    """
+    ok = np.all(np.isfinite(points), axis=-1)
+    count = ok.sum(axis=1)
+    centroid = np.where(ok[..., None], points, 0.0).sum(axis=1) / count[:, None]
+    a = np.where(ok[..., None], points - centroid[:, None], 0.0)
+    w, v = np.linalg.eigh(np.einsum("umi,umj->uij", a, a))  # ascending: S3^2, S2^2, S1^2
+    normal = v[..., 0]
+    sigma = _point_sigma(points, viewpoints, normal[:, None], settings)
+    expected = np.where(ok, sigma, 0.0).sum(axis=1) / count
+    s = np.maximum(np.sqrt(np.maximum(w[:, 0], 0) / np.maximum(count - 3, 1)), expected)
+    return normal, centroid, np.arctan2(s, np.sqrt(np.maximum(w[:, 1], 0)))
+
+
+def _links(points, viewpoints, settings: SurfelSettings,
+           stats=None) -> tuple[np.ndarray, np.ndarray]:
+    """Index pairs (i < j) of point sets (u, m, 3) [m] (NaN-padded, seen from viewpoints
+    (u, m, 3)) that lie on one plane: their normals agree within the coarse gate
+    ``merge_angle`` + ``merge_sigmas`` x the combined standard error of the two normals, and
+    every point of both lies within ``merge_sigmas`` expected errors (:func:`_point_sigma`) of
+    the least-squares plane of the two sets together.
+
+    Sets whose normal's standard error exceeds ``max_link_error`` link nothing: such a set (a
+    small surfel far away) fits several planes at once and would chain them into one group (on
+    room_glass a 13 cm surfel at 3.2 m, normal error 28 deg, joined both windows and the
+    floor). It can still join the group whose plane fits it when the groups are refitted.
+    ``stats``: :func:`_plane_stats` of the sets, if the caller has them."""
+    normal, _, error = stats or _plane_stats(points, viewpoints, settings)
+    ok = np.all(np.isfinite(points), axis=-1)
+    q = np.where(ok[..., None], points - np.nanmean(points.reshape(-1, 3), axis=0), 0.0)
+    count = ok.sum(axis=1).astype(float)
+    total = q.sum(axis=1)
+    moment = np.einsum("umi,umj->uij", q, q)
+    n = count[:, None] + count[None, :]
+    mean = (total[:, None] + total[None, :]) / n[..., None]
+    scatter = moment[:, None] + moment[None, :] - n[..., None, None] * np.einsum(
+        "abi,abj->abij", mean, mean)
+    pair = np.linalg.eigh(scatter)[1][..., 0]  # (u, u, 3): normal of the joint plane
+    dist = np.abs(np.einsum("amc,abc->abm", q, pair)
+                  - np.einsum("abc,abc->ab", mean, pair)[..., None])
+    sigma = _point_sigma(points[:, None], viewpoints[:, None], pair[:, :, None], settings)
+    inside = np.all(~ok[:, None] | (dist <= settings.merge_sigmas * sigma), axis=-1)  # a's points
+    gate = settings.merge_angle + settings.merge_sigmas * np.hypot(error[:, None], error[None, :])
+    angle = np.arccos(np.clip(np.abs(normal @ normal.T), 0.0, 1.0))
+    vague = error > settings.max_link_error
+    linked = inside & inside.T & (angle <= gate + 1e-12) & ~vague[:, None] & ~vague[None, :]
+    return np.nonzero(np.triu(linked, k=1))
+
+
+@dataclass(frozen=True)
+class PlaneGroups:
+    """Plane groups of surfels.
+
+    Attributes:
+        label: (k,) group of every surfel.
+        normals: (G, 3) unit normals, towards the sensors that saw the group.
+        offsets: (G,) [m], n . x = d on the plane.
+        centroids: (G, 3) [m] mean of the group's points.
+        normal_errors: (G,) standard errors of the least-squares normals [rad]
+            (:func:`_plane_stats`); single-surfel groups above ``max_normal_error`` are not
+            grown.
+        iterations: regroup/refit rounds run.
+    """
+
+    label: np.ndarray
+    normals: np.ndarray
+    offsets: np.ndarray
+    centroids: np.ndarray
+    normal_errors: np.ndarray
+    iterations: int
+
+    def __len__(self) -> int:
+        return len(self.normals)
+
+
+def _pad_groups(points, viewpoints, label) -> tuple[np.ndarray, np.ndarray]:
+    """NaN-padded points (G, m, 3) [m] and their viewpoints (G, m, 3) of the groups ``label``
+    (k,) of surfels with points (k, n, 3) (NaN for missing ones) seen from viewpoints (k, 3)."""
+    count = label.max() + 1
+    seen = np.broadcast_to(viewpoints[:, None], points.shape)
+    rows = [np.all(np.isfinite(points), axis=-1) & (label == g)[:, None] for g in range(count)]
+    m = max(int(r.sum()) for r in rows)
+    out, view = np.full((count, m, 3), np.nan), np.full((count, m, 3), np.nan)
+    for g, r in enumerate(rows):  # a few dozen groups
+        out[g, :r.sum()], view[g, :r.sum()] = points[r], seen[r]
+    return out, view
+
+
+def _fit_groups(points, viewpoints, label, settings: SurfelSettings):
+    """Normals (G, 3), offsets (G,) [m], centroids (G, 3) [m] and normal standard errors (G,)
+    [rad] of the groups ``label`` (k,) of surfels with points (k, n, 3) (NaN-padded) seen from
+    viewpoints (k, 3), oriented towards the mean viewpoint of each group; then the groups'
+    padded points and viewpoints (:func:`_pad_groups`)."""
+    pts, view = _pad_groups(points, viewpoints, label)
+    normals, centroids, errors = _plane_stats(pts, view, settings)
+    towards = np.array([viewpoints[label == g].mean(axis=0) for g in range(len(pts))])
+    flip = np.where(np.einsum("gc,gc->g", towards - centroids, normals) < 0, -1.0, 1.0)
+    normals = normals * flip[:, None]
+    return normals, np.einsum("gc,gc->g", normals, centroids), centroids, errors, pts, view
+
+
+def group_surfels(points, viewpoints, settings: SurfelSettings = SurfelSettings(),
+                  extra=None) -> PlaneGroups:
+    """Plane groups of registered surfels (package docstring: grouping, (14)(15), iteration).
+
+    Args:
+        points: (k, 4, 3) measured world points of each surfel [m].
+        viewpoints: (k, 3) sensor position from which each surfel was measured [m].
+        settings: ``merge_angle``, ``merge_sigmas``, ``range_sigma``, ``angle_sigma`` (the
+            tolerances) and ``max_iterations`` (cap on the regroup/refit rounds).
+        extra: (k, m, 3) fill points of each surfel [m] (NaN-padded), used in the tests and fits.
+    """
+    p = np.asarray(points, dtype=float)
+    if p.ndim != 3 or p.shape[1:] != (4, 3):
+        raise ValueError(f"surfel points must have shape (k, 4, 3), got {p.shape}")
+    view = np.asarray(viewpoints, dtype=float).reshape(-1, 3)
+    if len(view) != len(p):
+        raise ValueError(f"viewpoints must have shape ({len(p)}, 3), got {view.shape}")
+    if len(p) == 0:
+        return PlaneGroups(np.zeros(0, int), np.zeros((0, 3)), np.zeros(0), np.zeros((0, 3)),
+                           np.zeros(0), 0)
+    if extra is not None:
+        p = np.concatenate([p, np.asarray(extra, dtype=float).reshape(len(p), -1, 3)], axis=1)
+    seen = np.broadcast_to(view[:, None], p.shape)
+    stats = _plane_stats(p, seen, settings)
+    surfel_normals, _, own_error = stats
+    label = _components(len(p), *_links(p, seen, settings, stats))
+    z = settings.merge_sigmas
+    for iteration in range(1, settings.max_iterations + 1):
+        gn, gd, _, ge, _, _ = _fit_groups(p, view, label, settings)
+        # each surfel to the group whose plane fits all its points best, else one of its own
+        sigma = _point_sigma(p[:, None], seen[:, None], gn[None, :, None], settings)  # (k, G, n)
+        misfit = np.abs(np.einsum("knc,gc->kgn", p, gn) - gd[None, :, None]) / sigma
+        misfit = np.max(np.where(np.isfinite(misfit), misfit, 0.0), axis=-1)  # worst point
+        gate = settings.merge_angle + z * np.hypot(own_error[:, None], ge[None, :])
+        fits = (misfit <= z) & (np.arccos(np.clip(np.abs(surfel_normals @ gn.T), 0, 1)) <= gate)
+        own = label.max() + 1 + np.arange(len(p))
+        moved = _relabel(np.where(fits.any(axis=1),
+                                  np.argmin(np.where(fits, misfit, np.inf), axis=1), own))
+        *_, pts, pts_view = _fit_groups(p, view, moved, settings)
+        merged = _components(int(moved.max()) + 1, *_links(pts, pts_view, settings))[moved]
+        if np.array_equal(merged, label):
+            break
+        label = merged
+    gn, gd, gc, ge, _, _ = _fit_groups(p, view, label, settings)
+    return PlaneGroups(label, gn, gd, gc, ge, iteration)
+
+
+def project_onto_plane(points, normal, offset) -> np.ndarray:
+    """Orthogonal projection of points (..., 3) [m] onto planes n . x = d (normals (..., 3) and
+    offsets (...) [m] broadcast against the points)."""
+    p = np.asarray(points, dtype=float)
+    n = np.asarray(normal, dtype=float)
+    return p - (np.sum(p * n, axis=-1) - offset)[..., None] * n
+
+
+def _on_planes(points, viewpoint, groups: PlaneGroups, settings: SurfelSettings) -> np.ndarray:
+    """(c, G) True where points (c, 3) [m] seen from ``viewpoint`` (3,) [m] lie on each
+    group's plane within ``merge_sigmas`` expected errors (:func:`_point_sigma`)."""
+    sigma = _point_sigma(points[:, None], viewpoint, groups.normals[None], settings)
+    return np.abs(points @ groups.normals.T - groups.offsets) <= settings.merge_sigmas * sigma
+
+
+def _crease_residuals(normals, offsets, creases):
+    """Distances [pixels] (2 per crease) of the detected segment's ends from the image of the
+    line where its two planes meet; creases: list of (camera, world-from-camera pose, segment
+    (4,), group a, group b)."""
+    out = np.zeros(2 * len(creases))
+    for c, (camera, camera_pose, segment, ga, gb) in enumerate(creases):
+        line = np.cross(normals[ga], normals[gb])
+        norm = np.linalg.norm(line)
+        if norm < 1e-9:  # parallel planes: no crease
+            out[2 * c: 2 * c + 2] = 1e3
+            continue
+        line /= norm
+        o = camera_pose.translation
+        p0 = np.linalg.solve(np.array([normals[ga], normals[gb], line]),
+                             [offsets[ga], offsets[gb], line @ o])  # nearest to the camera
+        to_camera = camera_pose.inverse()
+        h = np.cross(to_camera.transform_points(p0[None])[0],
+                     to_camera.transform_vectors(line[None])[0])  # image line, normalised coords
+        f = camera.focal_pixels
+        uc, vc = camera.principal_point
+        ends = np.asarray(segment, float).reshape(2, 2)
+        xy = np.column_stack([(ends[:, 0] - uc) / f, (ends[:, 1] - vc) / f, np.ones(2)])
+        out[2 * c: 2 * c + 2] = f * (xy @ h) / max(np.hypot(h[0], h[1]), 1e-12)
+    return out
+
+
+def refine_planes(groups: PlaneGroups, points, label, viewpoints, creases,
+                  settings: SurfelSettings = SurfelSettings()) -> PlaneGroups:
+    """Planes fitted jointly to the sonar points and the image creases (package docstring).
+
+    Args:
+        groups: the least-squares groups (starting point and orientation).
+        points: (P, 3) measured points [m]; label: (P,) their group; viewpoints: (P, 3) the
+            sensor positions they were measured from [m].
+        creases: (camera, world-from-camera pose, segment (4,), group a, group b) of every
+            segment with a different plane on each side.
+    Minimises sum rho(r_i^2) over the point-to-plane distances / their expected error (from
+    ``range_sigma`` and ``angle_sigma`` at the incidence on the starting plane) and the
+    crease distances / ``crease_sigma`` (rho: soft L1, so a residual beyond about two sigmas
+    counts linearly: robust to the few echoes from elsewhere); creases whose residual on the
+    starting planes exceeds ``crease_gate`` pixels are left out.
+    """
+    from scipy.optimize import least_squares
+
+    n_groups = len(groups)
+    if n_groups == 0 or len(points) == 0:
+        return groups
+    start = _crease_residuals(groups.normals, groups.offsets, creases)
+    keep = [c for k, c in enumerate(creases)
+            if np.max(np.abs(start[2 * k: 2 * k + 2])) <= settings.crease_gate]
+
+    def unpack(x):
+        v = x.reshape(n_groups, 4)
+        return v[:, :3] / np.linalg.norm(v[:, :3], axis=1, keepdims=True), v[:, 3]
+
+    sigma = _point_sigma(points, viewpoints, groups.normals[label], settings)
+
+    def residuals(x):
+        n, d = unpack(x)
+        r_points = (np.einsum("pc,pc->p", points, n[label]) - d[label]) / sigma
+        return np.concatenate([r_points,
+                               _crease_residuals(n, d, keep) / settings.crease_sigma])
+
+    x0 = np.column_stack([groups.normals, groups.offsets]).ravel()
+    n, d = unpack(least_squares(residuals, x0, loss="soft_l1", f_scale=2.0).x)
+    flip = np.where(np.einsum("gc,gc->g", n, groups.normals) < 0, -1.0, 1.0)
+    n, d = n * flip[:, None], d * flip
+    return replace(groups, normals=n, offsets=d)
