@@ -53,7 +53,7 @@ STAGES = (
     ("narrow-band merge kernel", [("hitpaths.py", "narrowband_many")], []),
     ("gridding kernel", [("synthesis.py", "impulse_grid")], []),
     ("synthesis FFTs and filters",
-     [("synthesis.py", "groups_spectrum"), ("synthesis.py", "to_samples")],
+     [("synthesis.py", "groups_spectrum"), ("band.py", "to_samples")],
      [("synthesis.py", "impulse_grid")]),
     ("receiver noise", [("synthesis.py", "recording")], []),
     ("receive chain (beamforming to depth)", [("receiver.py", "process"),
@@ -191,7 +191,7 @@ def main(argv=None) -> int:
     t_slow = time.perf_counter() - t0
     error = np.abs(fast.samples - slow).max() / np.abs(slow).max()
     depth_fast = paper.processor.process(fast, u)[1].depth
-    from mitsonar.signal.synthesis import Recording
+    from mitsonar.signal.band import Recording
 
     depth_slow = paper.processor.process(Recording(slow, fast.sample_rate, fast.start_time), u)[1].depth
     report("fast synthesis speed-up", t_slow / t_fast, "x", 1.0, "direct (1)(3) summation", goal=100)

@@ -16,7 +16,9 @@ import numpy as np
 
 from mitsonar.frames import Pose
 from mitsonar.sensors.sonar import PRE_ROLL, TRACE_BATCH, Sonar
+from mitsonar.signal.band import Band
 from mitsonar.signal.ofdm import PAPER_LISTEN, Schedule, code_set
+from mitsonar.signal.receiver import EchoProcessor
 from mitsonar.signal.synthesis import EchoSynthesizer
 
 
@@ -61,13 +63,11 @@ class OfdmSonar:
         self.listen = listen
         cfg = sonar.config
         duration = PRE_ROLL + len(self.codes) * self.codes[0].slot + listen
-        self.synth = EchoSynthesizer(cfg.pulse, cfg.transducer, cfg.sample_rate, -PRE_ROLL, duration,
-                                     cfg.transducer_response,
-                                     band_threshold=cfg.band_floor, baseband=cfg.baseband,
-                                     waveforms=self.codes + tuple(t for c in self.codes for t in c.parts))
-        from mitsonar.signal.receiver import EchoProcessor
-
-        self.processor = EchoProcessor(cfg.geometry, self.synth, cfg.medium.speed_of_sound,
+        self.band = Band(cfg.pulse, cfg.transducer, cfg.sample_rate, -PRE_ROLL, duration,
+                         cfg.transducer_response, floor=cfg.band_floor, baseband=cfg.baseband,
+                         waveforms=self.codes + tuple(t for c in self.codes for t in c.parts))
+        self.synth = EchoSynthesizer(self.band)
+        self.processor = EchoProcessor(cfg.geometry, self.band, cfg.medium.speed_of_sound,
                                        cfg.detection, cfg.noise_rms)
 
     def schedule(self, directions) -> Schedule:
@@ -121,7 +121,7 @@ class OfdmSonar:
             [(sonar.tracer.direct_paths(schedule.directions[b]).delayed(offset), code)
              for b, offset, code in zip(beams, offsets, codes)], n_rx)
         total = np.sum(echo_spectra, axis=0) + direct_total
-        rec = self.synth.recording(self.synth.to_samples(total), sonar.config.noise_rms,
+        rec = self.synth.recording(self.band.to_samples(total), sonar.config.noise_rms,
                                    seed=_seed(seed, int(beams[0]), _NOISE_STREAM))
         out = {key: [] for key in ("detected", "depth", "amplitude", "points", "crosstalk")}
         max_path = 2.0 * sonar.config.max_range  # the listening window of every code

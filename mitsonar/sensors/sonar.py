@@ -24,7 +24,8 @@ from mitsonar.physics.medium import Medium
 from mitsonar.signal.receiver import Detection, DetectionSettings, EchoProcessor
 from mitsonar.scene.loading import AcousticScene, load_scene
 from mitsonar.physics.waveforms import Pulse
-from mitsonar.signal.synthesis import EchoSynthesizer, Recording
+from mitsonar.signal.band import Band, Recording
+from mitsonar.signal.synthesis import EchoSynthesizer
 from mitsonar.trace.paths import Paths
 from mitsonar.trace.tracer import AcousticTracer, TraceResult, TraceSettings
 from mitsonar.physics.transducer import Transducer
@@ -235,10 +236,11 @@ class Sonar:
         cfg = self.config
         self.tracer = AcousticTracer(self.scene, cfg.geometry, cfg.transducer, cfg.medium,
                                      cfg.pulse, cfg.trace)
-        self.synthesizer = EchoSynthesizer(cfg.pulse, cfg.transducer, cfg.sample_rate, -PRE_ROLL,
-                                           cfg.record_duration, cfg.transducer_response,
-                                           band_threshold=cfg.band_floor, baseband=cfg.baseband)
-        self.processor = EchoProcessor(cfg.geometry, self.synthesizer, cfg.medium.speed_of_sound,
+        self.band = Band(cfg.pulse, cfg.transducer, cfg.sample_rate, -PRE_ROLL,
+                         cfg.record_duration, cfg.transducer_response, floor=cfg.band_floor,
+                         baseband=cfg.baseband)
+        self.synthesizer = EchoSynthesizer(self.band)
+        self.processor = EchoProcessor(cfg.geometry, self.band, cfg.medium.speed_of_sound,
                                        cfg.detection, cfg.noise_rms)
         self._direct_envelopes: dict = {}
 
@@ -268,7 +270,7 @@ class Sonar:
         direct = self.tracer.direct_paths(u)
         groups = self.echo_groups(trace.paths, self.config.pulse) + [(direct, self.config.pulse)]
         synth = self.synthesizer
-        recording = synth.recording(synth.to_samples(synth.groups_spectrum(groups, n_rx)),
+        recording = synth.recording(self.band.to_samples(synth.groups_spectrum(groups, n_rx)),
                                     self.config.noise_rms, seed=[seed, 1])
         key = tuple(np.round(u, 12))
         if key not in self._direct_envelopes:  # depends on the direction only: computed once
@@ -299,9 +301,9 @@ class Sonar:
         self.config.geometry.check_in_fov(dirs)
         dirs = dirs / np.linalg.norm(dirs, axis=1, keepdims=True)
         n_rx = self.config.geometry.rx.count
-        synth = self.synthesizer
-        echoes = np.empty((len(dirs), n_rx, synth.n_samples),
-                          dtype=np.complex64 if synth.baseband else np.float32)
+        band = self.band
+        echoes = np.empty((len(dirs), n_rx, band.n_samples),
+                          dtype=np.complex64 if band.baseband else np.float32)
         detections = []
         for first in range(0, len(dirs), TRACE_BATCH):
             beams = range(first, min(first + TRACE_BATCH, len(dirs)))
@@ -318,8 +320,8 @@ class Sonar:
                     depth=np.array([d.depth for d in detections]),
                     amplitude=np.array([d.amplitude for d in detections]),
                     points_sensor=np.array([d.point for d in detections]).reshape(-1, 3),
-                    echoes=echoes, sample_rate=synth.sample_rate, start_time=synth.start_time,
-                    carrier=synth.carrier)
+                    echoes=echoes, sample_rate=band.sample_rate, start_time=band.start_time,
+                    carrier=band.carrier)
 
 
 def _beam_seed(seed: int, beam: int) -> int:

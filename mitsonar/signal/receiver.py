@@ -8,11 +8,10 @@ Order and choices:
 * Matched filter (6) with the expected echo shape (drive pulse through both transducer
   responses), normalised so that an echo of path gain A gives an envelope peak of |A| [Pa].
   Beamforming and filtering share one FFT per channel and one inverse FFT, and are computed on
-  the signal band only (:attr:`EchoSynthesizer.band <mitsonar.signal.synthesis.EchoSynthesizer.band>`;
-  the matched filter is zero elsewhere). Real and complex baseband recordings go through the
-  same chain: their spectra on the band are the same (:meth:`EchoSynthesizer.band_spectra
-  <mitsonar.signal.synthesis.EchoSynthesizer.band_spectra>`); envelopes are sampled at the recording's
-  rate.
+  the signal band only (:attr:`Band.bins <mitsonar.signal.band.Band.bins>`; the matched filter
+  is zero elsewhere). Real and complex baseband recordings go through the same chain: their
+  spectra on the band are the same (:meth:`Band.band_spectra
+  <mitsonar.signal.band.Band.band_spectra>`); envelopes are sampled at the recording's rate.
 * Envelope = |analytic output|; time of arrival at its strongest peak, refined by a parabola
   through the three samples around it.
 * Detection: candidates are the envelope's local maxima beyond ``min_range`` that exceed
@@ -54,7 +53,7 @@ from scipy import sparse
 from mitsonar.physics.array import ArrayGeometry
 from mitsonar.frames import direction_from_fov_angles, fov_angles
 from mitsonar.physics.waveforms import phasor
-from mitsonar.signal.synthesis import EchoSynthesizer, Recording
+from mitsonar.signal.band import Band, Recording
 from mitsonar.validation import check_positive
 
 
@@ -147,16 +146,16 @@ class EchoProcessor:
 
     Args:
         geometry: the arrays.
-        synthesizer: supplies the expected echo spectrum and FFT size of the recordings.
+        band: the recordings' band: sample grid, expected echo spectra, spectra of samples.
         speed_of_sound: c [m/s].
         settings: detection parameters.
         noise_rms: receiver noise per sample [Pa] (sets the noise threshold).
     """
 
-    def __init__(self, geometry: ArrayGeometry, synthesizer: EchoSynthesizer, speed_of_sound: float,
+    def __init__(self, geometry: ArrayGeometry, band: Band, speed_of_sound: float,
                  settings: DetectionSettings, noise_rms: float):
         self.geometry = geometry
-        self.synth = synthesizer
+        self.band = band
         self.c = float(speed_of_sound)
         self.settings = settings
         self.noise_rms = float(noise_rms)
@@ -173,20 +172,19 @@ class EchoProcessor:
         # whose codes share a tone share that tone's look).
         self._recording_cache = (None, {})
         self._steering = (None, None)  # (direction, (N_rx, nb) phasors) of the last beam formed
-        self._band_freq = synthesizer.frequencies[synthesizer.band]  # (nb,) [Hz]
         # W [samples] of :meth:`_delay_and_sum`: the largest receive delay (5), rounded up, + 1.
         self._window_lag = int(np.ceil(
             np.linalg.norm(geometry.rx_positions - geometry.rx_origin, axis=1).max()
-            / self.c * synthesizer.sample_rate)) + 1
+            / self.c * band.sample_rate)) + 1
 
     def _matched_filter(self, waveform=None):
         """(filter spectrum on the band (nb,), template energy) of a waveform: conj(W) / E,
         E = sum |w_a|^2 over the samples of a real recording at the reference rate."""
-        key = self.synth.pulse if waveform is None else waveform
+        key = self.band.pulse if waveform is None else waveform
         if key not in self._filters:
-            w = self.synth.system_spectrum(key)
-            energy = float(np.sum(np.abs(w) ** 2)) / self.synth.n_fft  # Parseval
-            self._filters[key] = (np.conj(w[self.synth.band]) / energy, energy)
+            w = self.band.system_spectrum(key)
+            energy = float(np.sum(np.abs(w) ** 2)) / self.band.n_fft  # Parseval
+            self._filters[key] = (np.conj(w[self.band.bins]) / energy, energy)
         return self._filters[key]
 
     def noise_envelope_rms(self, waveform=None) -> float:
@@ -212,13 +210,13 @@ class EchoProcessor:
     def compressed_spectra(self, recording: Recording, waveform=None) -> np.ndarray:
         """Matched-filtered analytic spectra of all channels on the band, (N_rx, nb)."""
         spectra = self._cached(recording, "spectra",
-                               lambda: self.synth.band_spectra(recording.samples))
+                               lambda: self.band.band_spectra(recording.samples))
         return spectra * self._matched_filter(waveform)[0]
 
     def look(self, recording: Recording, waveform=None) -> tuple[np.ndarray, float]:
         """(analytic channels (N_rx, N) matched-filtered for ``waveform`` and demodulated at its
         carrier, carrier [Hz]): one look of the side-lobe check and the arrival direction."""
-        carrier = (self.synth.pulse if waveform is None else waveform).frequency
+        carrier = (self.band.pulse if waveform is None else waveform).frequency
         return self._cached(recording, ("look", waveform), lambda: (self._demodulated(
             self.compressed_spectra(recording, waveform), recording.samples.shape[1],
             recording.start_time, carrier), carrier))
@@ -229,8 +227,9 @@ class EchoProcessor:
         key = tuple(np.asarray(direction, dtype=float))
         if self._steering[0] != key:  # a beam is formed several times (code, tones, blanking)
             delays = self.receive_delays(direction)
-            self._steering = (key, phasor(2 * np.pi * self._band_freq[None, :] * delays[:, None]))
-        return self.synth.to_analytic((spectra * self._steering[1]).mean(axis=0))[:n_samples]
+            self._steering = (key, phasor(2 * np.pi * self.band.frequencies[None, :]
+                                          * delays[:, None]))
+        return self.band.to_analytic((spectra * self._steering[1]).mean(axis=0))[:n_samples]
 
     def envelope(self, recording: Recording, direction, waveform=None) -> np.ndarray:
         """Envelope (N,) [Pa] of the beamformed, matched-filtered recording."""
@@ -239,19 +238,18 @@ class EchoProcessor:
 
     def noiseless_envelope(self, spectrum: np.ndarray, direction, waveform=None) -> np.ndarray:
         """Envelope (n_samples,) [Pa] of echoes given by their summed analytic spectrum on the
-        band (N_rx, nb) (:meth:`EchoSynthesizer.groups_spectrum
-        <mitsonar.signal.synthesis.EchoSynthesizer.groups_spectrum>`): :meth:`envelope` of their
-        noiseless recording, except that echoes are not cut at the recording's end."""
+        band (N_rx, nb) (as the synthesizer's ``groups_spectrum`` gives them): :meth:`envelope`
+        of their noiseless recording, except that echoes are not cut at the recording's end."""
         return np.abs(self.beamform(spectrum * self._matched_filter(waveform)[0],
-                                    self.synth.n_samples, direction))
+                                    self.band.n_samples, direction))
 
     def _demodulated(self, spectra, n: int, start_time: float, carrier: float) -> np.ndarray:
         """(N_rx, n) analytic channels of compressed ``spectra`` (N_rx, nb) demodulated at
         ``carrier`` [Hz]; their first sample is at ``start_time`` [s]."""
-        t = start_time + np.arange(n) / self.synth.sample_rate
-        # The synthesizer's analytic signals are already demodulated by its own carrier.
-        shift = np.exp(-2j * np.pi * (carrier - self.synth.carrier) * t)
-        return self.synth.to_analytic(spectra)[:, :n] * shift
+        t = start_time + np.arange(n) / self.band.sample_rate
+        # The band's analytic signals are already demodulated by its own carrier.
+        shift = np.exp(-2j * np.pi * (carrier - self.band.carrier) * t)
+        return self.band.to_analytic(spectra)[:, :n] * shift
 
     def _delay_and_sum(self, directions, carrier: float, fraction: float = 0.0):
         """Narrow-band delay-and-sum towards directions (D, 3) as a sparse (D, N_rx x L) matrix
@@ -259,7 +257,7 @@ class EchoProcessor:
         ``carrier`` [Hz] (:meth:`_demodulated`): the window starting W samples before sample k
         gives the beams at sample k + ``fraction``, each channel read at its delay (5) by linear
         interpolation and phase-aligned at the carrier. W covers the largest delay."""
-        fs = self.synth.sample_rate
+        fs = self.band.sample_rate
         delays = self.receive_delays(directions)  # (D, N_rx) [s]
         q = fraction + delays * fs
         lag = self._window_lag
@@ -366,7 +364,7 @@ class EchoProcessor:
             part_envelopes: envelopes (N,) of the waveform's parts, for the part-balance test.
         """
         s = self.settings
-        fs = self.synth.sample_rate
+        fs = self.band.sample_rate
         g = self.geometry
         u = np.asarray(direction, dtype=float)
         n = len(envelope)

@@ -46,13 +46,14 @@ def test_first_order_terms_match_their_spectrum(wall_path):
     parts = [Paths(gain[k], delay[k], channel[k], first_order=first_order[k], carrier=carrier)
              for k, carrier in ((slice(0, 20), 39e3), (slice(20, n), 41e3))]
     fast = synth.groups_spectrum([(p, None) for p in parts], 3)
-    f = synth.frequencies[synth.band]
+    band = sonar.band
+    f = band.frequencies
     spectrum = np.zeros((3, len(f)), complex)
     for p in parts:
-        terms = np.exp(-2j * np.pi * f[None] * (p.delay[:, None] - synth.start_time)) \
+        terms = np.exp(-2j * np.pi * f[None] * (p.delay[:, None] - band.start_time)) \
             * (p.gain[:, None] - 2j * np.pi * (f[None] - p.carrier) * p.first_order[:, None])
         np.add.at(spectrum, p.channel, terms)
-    exact = spectrum * synth.system_spectrum()[synth.band]
+    exact = spectrum * band.system_spectrum()[band.bins]
     error = np.abs(fast - exact).max() / np.abs(exact).max()
     assert synth.tolerance == pytest.approx(3e-5) and error < synth.tolerance, error  # measured 2e-5
 
@@ -67,7 +68,7 @@ def test_noiseless_envelope_equals_the_envelope_of_the_recording(wall_path):
     sonar = mitsonar.Sonar(wall_path, mitsonar.SonarConfig(noise_rms=0.0))
     groups = sonar.echo_groups(sonar.tracer.trace(IDENTITY, u).paths, sonar.config.pulse)
     spectrum = sonar.synthesizer.groups_spectrum(groups, 25)
-    recording = sonar.synthesizer.recording(sonar.synthesizer.to_analytic(spectrum))
+    recording = sonar.synthesizer.recording(sonar.band.to_analytic(spectrum))
     expected = sonar.processor.envelope(recording, u)
     got = sonar.processor.noiseless_envelope(spectrum, u)
     assert got.shape == expected.shape
@@ -115,7 +116,7 @@ def test_noise_threshold_matches_noise_statistics(wall_path, baseband):
     the band), against EchoProcessor.noise_envelope_rms: 16 recordings (~60 independent envelope
     samples each, away from the ends), so the estimate's own scatter is ~2 %."""
     sonar = mitsonar.Sonar(wall_path, mitsonar.SonarConfig(noise_rms=0.01, baseband=baseband))
-    assert sonar.synthesizer.baseband == baseband
+    assert sonar.band.baseband == baseband
     power = []
     for seed in range(16):
         rec = sonar.synthesizer.synthesize(Paths.empty(), 25, noise_rms=0.01, seed=seed)
@@ -151,33 +152,10 @@ def test_noise_needs_a_seed_and_is_reproducible(wall_path):
     assert np.array_equal(a, b) and not np.array_equal(a, c)
 
 
-def test_real_recording_and_band_of_the_synthesizer(wall_path):
-    """to_samples is the real part of to_analytic (a half-length inverse FFT), or to_analytic
-    itself for baseband, and band_spectra inverts it on the band; a waveform wider than the band
-    the synthesizer was built for is an error naming the fix, not a silently truncated spectrum."""
-    from mitsonar.signal.ofdm import Code
-
-    for baseband in (False, True):
-        cfg = mitsonar.SonarConfig(noise_rms=0.0, max_range=3.0, baseband=baseband, band_floor=1e-5)
-        sonar = mitsonar.Sonar(wall_path, cfg)
-        synth = sonar.synthesizer
-        assert synth.baseband == baseband and bool(synth.carrier) == baseband
-        paths = sonar.tracer.trace(IDENTITY, BROADSIDE).paths.paths
-        spectrum = synth.group_spectrum(paths, None, 25)
-        analytic = synth.to_analytic(spectrum)
-        samples = synth.to_samples(spectrum)
-        expected = analytic if baseband else analytic.real
-        assert np.abs(samples - expected).max() < 1e-12 * np.abs(analytic).max()
-        error = np.abs(synth.band_spectra(samples) - spectrum).max() / np.abs(spectrum).max()
-        assert error < 1e-5, error  # measured 2.8e-6 (both): band-limited tails beyond the end
-    with pytest.raises(ValueError, match="waveforms="):
-        synth.system_spectrum(Code(32e3, 48e3))
-
-
 def test_baseband_recording_equals_direct_summation(wall_path):
     """The pressure of a complex baseband recording, Re(samples exp(j 2 pi carrier t)) (paper
     model's paths, ideal transducers), against the direct summation of (1)(3) at the baseband
-    sample times; band_spectra inverts to_samples on the band."""
+    sample times."""
     cfg = mitsonar.SonarConfig(trace=mitsonar.TraceSettings(model="paper"), transducer_response=False,
                                sample_rate=400e3, noise_rms=0.0, max_range=1.5, baseband=True,
                                band_floor=1e-5)
@@ -185,7 +163,7 @@ def test_baseband_recording_equals_direct_summation(wall_path):
     synth = sonar.synthesizer
     paths = sonar.tracer.trace(IDENTITY, BROADSIDE).paths
     fast = synth.synthesize(paths, 25)
-    assert fast.carrier == synth.carrier > 0 and np.iscomplexobj(fast.samples)
+    assert fast.carrier == sonar.band.carrier > 0 and np.iscomplexobj(fast.samples)
     assert fast.sample_rate < cfg.sample_rate
     t = fast.times
     oracle = direct_summation(paths, cfg.pulse, 25, t)

@@ -1,0 +1,192 @@
+"""The signal band: the sample grid, recording window and spectra shared by synthesis and reception.
+
+Recordings are real pressure at the sample rate, or (``baseband``) complex baseband: the analytic
+recording a(t) demodulated by the band centre f_d, a(t) exp(-j 2 pi f_d t), sampled at the band's
+own rate (about twice its width, a few times fewer numbers than the real recording). The pressure
+is Re(samples exp(j 2 pi f_d t)) at the sample times t. Both are exact on the band; the band keeps
+the system spectrum down to ``floor`` of its peak (leaving out the rest changes the echoes by
+2-4 times that, relative to the peak echo). Spectra are handed around on the band only, as
+(..., nb) arrays of the analytic recording's spectrum (bins :attr:`Band.bins` of the frequency
+grid), whatever the recording's form: :meth:`Band.to_samples` and :meth:`Band.band_spectra`
+convert between them and the recorded samples.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.fft as sfft
+
+from mitsonar.physics.transducer import Transducer
+from mitsonar.validation import check_finite, check_positive
+
+#: Complex baseband recordings are sampled at this many times the band's width.
+BASEBAND_OVERSAMPLING = 2
+#: Automatic choice: baseband when its sample rate is at most this fraction of the real one. (The
+#: real form's impulse grid and receive chain are complex at the full rate too; measured: OFDM
+#: frames at 0.65 of the rate 13 % faster, pings at 0.17 of it 30 %.)
+BASEBAND_AUTO = 0.7
+
+
+@dataclass(frozen=True)
+class Recording:
+    """Sampled echoes of all receive channels.
+
+    Attributes:
+        samples: (N_rx, N) received pressure [Pa] (receiver response included), real; or complex
+            baseband when ``carrier`` > 0: the pressure is Re(samples exp(j 2 pi carrier t)).
+        sample_rate: [Hz].
+        start_time: time of sample 0 relative to the virtual firing of the transmit origin [s].
+        carrier: demodulation frequency of complex baseband samples [Hz] (0: real pressure).
+    """
+
+    samples: np.ndarray
+    sample_rate: float
+    start_time: float
+    carrier: float = 0.0
+
+    @property
+    def times(self) -> np.ndarray:
+        """(N,) sample times [s]."""
+        return self.start_time + np.arange(self.samples.shape[-1]) / self.sample_rate
+
+
+class Band:
+    """The band of a sensor's recordings, for one fixed recording window: sample grid, band bins,
+    recording form, the system spectra of the waveforms, and the conversions between recorded
+    samples and spectra on the band. Construct once and share (synthesizer, receiver); each
+    waveform's system spectrum is computed once.
+
+    Args:
+        pulse: the default drive waveform (anything with ``spectrum(f)``, ``duration`` and
+            ``frequency``, e.g. :class:`~mitsonar.physics.waveforms.Pulse` or an OFDM code).
+        transducer: element model; its response is applied twice (transmit and receive) when
+            ``transducer_response`` is true.
+        sample_rate: sample rate of real recordings [Hz]; it sets the frequency grid (n_fft bins
+            of sample_rate / n_fft) and the noise reference in both forms.
+        start_time: time of the first sample [s] (negative to record the firing itself).
+        duration: recording length [s].
+        transducer_response: apply H_tx H_rx (false: ideal flat transducers, as in (1)(3)).
+        floor: spectral components of the system waveform below this fraction of its peak
+            are left out (they are far below the receiver noise).
+        waveforms: further waveforms the band must serve (the bins span all their bands).
+        baseband: record complex baseband at ``BASEBAND_OVERSAMPLING`` times the band's width
+            (module docstring) instead of real pressure at ``sample_rate``; None: whenever that
+            rate is at most ``BASEBAND_AUTO`` x ``sample_rate``.
+
+    Attributes of the recordings: ``sample_rate`` [Hz] (the band's rate with ``baseband``),
+    ``n_samples``, ``start_time`` [s] and ``carrier`` [Hz] (0 for real recordings).
+    """
+
+    def __init__(self, pulse, transducer: Transducer, sample_rate: float, start_time: float,
+                 duration: float, transducer_response: bool = True, floor: float = 1e-5,
+                 waveforms=(), baseband: bool | None = False):
+        check_positive("sample_rate [Hz]", sample_rate)
+        check_positive("duration [s]", duration)
+        check_finite("start_time [s]", start_time)
+        self.pulse = pulse
+        self.transducer = transducer
+        self.transducer_response = transducer_response
+        self.floor = floor
+        self.reference_rate = float(sample_rate)
+        self.start_time = float(start_time)
+        n_real = int(np.ceil(duration * sample_rate))
+        # Guard samples so that the ringing of the last echoes does not wrap onto the first ones.
+        ringing = 14 * transducer.decay_time if transducer_response else 0.0
+        longest = max(w.duration for w in (pulse,) + tuple(waveforms))
+        guard = int(np.ceil((longest + ringing) * sample_rate)) + 64
+        #: Size of the frequency grid, of real recordings' transforms and of their period.
+        self.n_fft = sfft.next_fast_len(n_real + guard)
+        #: (n_fft,) frequencies of the FFT bins [Hz].
+        self.fft_frequencies = np.fft.fftfreq(self.n_fft, 1.0 / sample_rate)
+        self._spectra = {}
+        self.bins = None
+        nonzero = np.flatnonzero(np.any([self.system_spectrum(w) != 0
+                                         for w in (pulse,) + tuple(waveforms)], axis=0))
+        #: FFT bins (a slice of :attr:`fft_frequencies`) spanning the bands of every waveform
+        #: served: spectra are zero outside, so filtering and beamforming are computed here only.
+        self.bins = slice(int(nonzero[0]), int(nonzero[-1]) + 1)
+        #: (nb,) frequencies of the band's bins [Hz].
+        self.frequencies = self.fft_frequencies[self.bins]
+        #: FFT bin of the band's centre f_d.
+        self.shift_bin = (self.bins.start + self.bins.stop - 1) // 2
+        band_bins = np.arange(self.bins.start, self.bins.stop)
+        if baseband is None:
+            baseband = BASEBAND_OVERSAMPLING * len(band_bins) <= BASEBAND_AUTO * self.n_fft
+        #: True: recordings are complex baseband; False: real pressure.
+        self.baseband = bool(baseband)
+        #: Samples per period of the recording (and of the synthesizer's impulse grid): n_fft
+        #: for real recordings, ``BASEBAND_OVERSAMPLING`` x the band's bins for baseband (same
+        #: period, same bins).
+        self.n_grid = sfft.next_fast_len(BASEBAND_OVERSAMPLING * len(band_bins)) if baseband \
+            else self.n_fft
+        #: Sample rate of the recordings [Hz].
+        self.sample_rate = self.reference_rate * self.n_grid / self.n_fft
+        self.n_samples = int(np.ceil(duration * self.sample_rate)) if baseband else n_real
+        #: Demodulation frequency of the recordings [Hz]: f_d for baseband, 0 for real pressure.
+        self.carrier = float(self.fft_frequencies[self.shift_bin]) if baseband else 0.0
+        #: (nb,) bins of the band on an n_grid transform of a signal shifted down by f_d.
+        self.grid_bins = (band_bins - self.shift_bin) % self.n_grid
+        # The recording's transform bins of the band, with the factor from the grid's spectrum
+        # to a(t) exp(-j 2 pi carrier t) (module docstring).
+        self._output_bins = self.grid_bins if baseband else band_bins
+        self._output_scale = self.n_grid / self.n_fft \
+            * np.exp(-2j * np.pi * self.carrier * self.start_time)
+
+    def system_spectrum(self, waveform=None) -> np.ndarray:
+        """Analytic spectrum W(f) (n_fft,) of the expected echo of a unit path (drive x H_tx x
+        H_rx) on the FFT grid, scaled per sample; zero outside the band. Cached per waveform
+        (default: the pulse); a waveform not given to the constructor must lie within
+        :attr:`bins`."""
+        waveform = self.pulse if waveform is None else waveform
+        if waveform not in self._spectra:
+            f = self.fft_frequencies
+            positive = f > 0
+            w = np.zeros(self.n_fft, dtype=complex)
+            w[positive] = 2.0 * waveform.spectrum(f[positive]) * self.reference_rate
+            if self.transducer_response:
+                w[positive] *= self.transducer.frequency_response(f[positive]) ** 2
+            kept = (np.abs(w) > self.floor * np.abs(w).max()) \
+                & (np.abs(f) < 0.4 * self.reference_rate)
+            w = np.where(kept, w, 0.0)
+            if self.bins is not None \
+                    and (np.any(w[: self.bins.start]) or np.any(w[self.bins.stop:])):
+                raise ValueError(f"waveform {waveform!r} has a wider band than the band was "
+                                 f"built for; pass it in Band(waveforms=...)")
+            self._spectra[waveform] = w
+        return self._spectra[waveform]
+
+    def band_moments(self, waveform=None) -> tuple[float, float]:
+        """Centre (power-weighted mean) and rms bandwidth [Hz] of the system spectrum of
+        ``waveform``: what the receiver records, the drive through both transducer responses."""
+        f = self.fft_frequencies
+        power = np.abs(self.system_spectrum(waveform)) ** 2
+        centre = float(np.sum(f * power) / np.sum(power))
+        return centre, float(np.sqrt(np.sum((f - centre) ** 2 * power) / np.sum(power)))
+
+    def to_analytic(self, spectrum: np.ndarray) -> np.ndarray:
+        """Analytic recording (..., n_samples), demodulated by :attr:`carrier`, of analytic
+        spectra on the band (..., nb): a(t) exp(-j 2 pi carrier t) at the sample times."""
+        full = np.zeros(spectrum.shape[:-1] + (self.n_grid,), dtype=complex)
+        full[..., self._output_bins] = spectrum * self._output_scale
+        return sfft.ifft(full, axis=-1, workers=-1)[..., : self.n_samples]
+
+    def band_spectra(self, samples: np.ndarray) -> np.ndarray:
+        """Analytic spectra on the band (..., nb) of recorded samples (..., n_samples), real or
+        baseband as this band records them: the inverse of :meth:`to_samples` on the band (the
+        recording's end cuts echoes that outlast it)."""
+        if self.baseband:
+            return sfft.fft(samples, n=self.n_grid, axis=-1, workers=-1)[..., self._output_bins] \
+                / self._output_scale
+        return 2.0 * sfft.rfft(samples, n=self.n_fft, axis=-1, workers=-1)[..., self.bins]
+
+    def to_samples(self, spectrum: np.ndarray) -> np.ndarray:
+        """Noiseless recorded samples (n_channels, n_samples) of a summed analytic spectrum on the
+        band (n_channels, nb): complex baseband (:meth:`to_analytic`), or the real pressure [Pa]
+        by a half-length inverse FFT (the spectrum lives at positive frequencies below fs / 2)."""
+        if self.baseband:
+            return self.to_analytic(spectrum)
+        half = np.zeros((len(spectrum), self.n_fft // 2 + 1), dtype=complex)
+        half[:, self.bins] = 0.5 * spectrum
+        return sfft.irfft(half, n=self.n_fft, axis=-1, workers=-1)[:, : self.n_samples]
