@@ -1,0 +1,63 @@
+"""Write the shipped Mitsuba scenes: ``python scenes/generate.py [--out DIR] [--only NAME]``.
+
+Each scene of ``mitsonar.scene.shipped.SCENES`` goes to ``<out>/<name>/`` (default: beside this
+file) as scene.xml, ground_truth.json and its PNGs (formats: ``mitsonar.scene.building.spec``).
+Deterministic: regenerating gives identical bytes (a test checks the shipped files against a
+fresh generation). Needs mitsonar installed (``make install``); ``--preview DIR`` also renders
+PNG previews with Mitsuba.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+from mitsonar.scene.building.preview import render_preview
+from mitsonar.scene.shipped import SCENES
+
+#: What scene.xml's header names as the program to edit.
+WRITTEN_BY = "scenes/generate.py"
+
+
+def generate(out_dir=None, names=None) -> list[Path]:
+    """Write the scenes ``names`` (default: all) into ``out_dir`` (default: beside this file)."""
+    out_dir = Path(out_dir) if out_dir is not None else Path(__file__).resolve().parent
+    names = list(SCENES) if names is None else list(names)
+    unknown = [n for n in names if n not in SCENES]
+    if unknown:
+        raise ValueError(f"unknown scene(s) {unknown}; known: {', '.join(SCENES)}")
+    return [SCENES[n]().write(out_dir, WRITTEN_BY) for n in names]
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--out", type=Path, default=None,
+                   help="output directory (default: the directory of this script)")
+    p.add_argument("--only", action="append", metavar="NAME",
+                   help=f"scene to write (repeatable; default all: {', '.join(SCENES)})")
+    p.add_argument("--preview", type=Path, metavar="DIR",
+                   help="also render <DIR>/<scene>_camera.png and <scene>_overview.png "
+                        "(320 x 240, 16 spp)")
+    args = p.parse_args(argv)
+    try:
+        paths = generate(args.out, args.only)
+    except ValueError as err:
+        print(f"generate.py: error: {err}", file=sys.stderr)
+        return 2
+    for path in paths:
+        gt = json.loads((path.parent / "ground_truth.json").read_text())
+        print(f"{path}: {len(gt['shapes'])} shapes, floor {gt['floor_area_m2']:.2f} m^2, "
+              f"{len(gt['windows'])} windows")
+        if args.preview:
+            spec = SCENES[path.parent.name]()
+            for view in ("camera", "overview"):
+                png = args.preview / f"{spec.name}_{view}.png"
+                render_preview(path, png, view, overview=spec.overview)
+                print(f"  preview {png}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
