@@ -14,6 +14,8 @@ import pytest
 
 import mitsonar  # noqa: F401  (configures Dr.Jit's LLVM before Mitsuba loads)
 from mitsonar.physics.materials import preset
+from mitsonar.scene.building.shapes import box
+from mitsonar.scene.building.surfaces import rect_minus
 from mitsonar.scene.loading import DefaultMaterialWarning, load_scene, mitsuba
 from mitsonar.scenes import generate
 
@@ -570,7 +572,7 @@ def test_generator_reproduces_shipped_files(tmp_path):
 def test_rect_minus_partitions_the_rectangle():
     outer = (0.0, 4.0, 0.0, 3.0)
     holes = [(1.0, 2.0, 0.5, 1.5), (1.5, 3.0, 2.0, 3.5), (-1.0, 0.5, 1.0, 2.0)]
-    pieces = generate.rect_minus(outer, holes)
+    pieces = rect_minus(outer, holes)
     area = sum((b - a) * (d - c) for a, b, c, d in pieces)
     hole_area = 1.0 * 1.0 + 1.5 * 1.0 + 0.5 * 1.0  # clipped to the outer rectangle
     assert area == pytest.approx(12.0 - hole_area)
@@ -583,7 +585,7 @@ def test_rect_minus_partitions_the_rectangle():
 
 def test_box_area_matches_mitsuba():
     mi = mitsuba()
-    shape = generate.box("b", (1.0, 2.0, 0.4), (1.2, 0.6, 0.8), "m", "furniture", "b", yaw_deg=30)
+    shape = box("b", (1.0, 2.0, 0.4), (1.2, 0.6, 0.8), "m", "furniture", "b", yaw_deg=30)
     cube = mi.load_dict({"type": "cube", "to_world": mi.ScalarTransform4f(shape.to_world)})
     area = float(np.asarray(cube.surface_area()).ravel()[0])
     assert shape.area == pytest.approx(2 * (1.2 * 0.6 + 0.6 * 0.8 + 1.2 * 0.8))
