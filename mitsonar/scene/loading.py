@@ -274,25 +274,3 @@ def _sphere(segments: int):
 
 
 _TESSELLATORS = {"Disk": _disk, "Cylinder": _cylinder, "Sphere": _sphere}
-
-
-# ---- small scenes written by scripts and tests ----------------------------------------------
-def material_xml(material: str, reflectance: float | str | None = None, **acoustic) -> str:
-    """An ``acoustic`` BSDF ``material`` around a diffuse BSDF of ``reflectance`` (a grey value
-    in [0, 1], or "r, g, b"; None: Mitsuba's default); the ``acoustic`` parameters (e.g.
-    ``preset="drywall"``, ``impedance=...``) become <string> (text) or <float> elements."""
-    params = "".join(f'<{"string" if isinstance(v, str) else "float"} name="{k}" value="{v}"/>'
-                     for k, v in acoustic.items())
-    diffuse = '<bsdf type="diffuse"/>' if reflectance is None else \
-        f'<bsdf type="diffuse"><rgb name="reflectance" value="{reflectance}"/></bsdf>'
-    return f'<bsdf type="acoustic" id="{material}">{params}{diffuse}</bsdf>'
-
-
-def spanned_rectangle_xml(material: str, centre, e1, e2, half) -> str:
-    """A rectangle centred at ``centre`` (3,) [m] spanning +-half[0] [m] along e1 and +-half[1]
-    [m] along e2 (directions, normalised here); its lit side faces e1 x e2."""
-    e1, e2 = (np.asarray(e, float) / np.linalg.norm(e) for e in (e1, e2))
-    m = np.column_stack([e1 * half[0], e2 * half[1], np.cross(e1, e2), centre])
-    rows = "  ".join(", ".join(f"{x:.9g}" for x in row) for row in m)
-    return (f'<shape type="rectangle"><transform name="to_world">'
-            f'<matrix value="{rows}  0, 0, 0, 1"/></transform><ref id="{material}"/></shape>')

@@ -7,8 +7,7 @@ import pytest
 
 import mitsonar
 from mitsonar.scene.loading import DefaultMaterialWarning, SceneError
-from helpers import rectangle_xml
-from mitsonar.scene.loading import material_xml
+from mitsonar.scene.xml import material_xml, rectangle_xml
 
 Z_AIR = mitsonar.Medium().impedance
 
