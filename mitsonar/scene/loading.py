@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
@@ -93,7 +94,7 @@ def load_scene(path, default_material: AcousticMaterial | None = None) -> Acoust
     try:
         scene = mi.load_file(str(path), optimize=False)
     except Exception as err:  # Mitsuba raises RuntimeError/ValueError with the parser's message
-        raise SceneError(f"{path}: {err}") from None
+        raise _loading_error(path, str(err)) from None
     default = default_material or preset(DEFAULT_MATERIAL_NAME)
     shapes = list(scene.shapes())
     if not shapes:
@@ -124,6 +125,29 @@ def load_scene(path, default_material: AcousticMaterial | None = None) -> Acoust
     table[registry_ids] = shape_material
     return AcousticScene(path, scene, [s.id() for s in shapes], materials, shape_material,
                          registry_ids, table)
+
+
+#: Mitsuba's source location before its messages, e.g. "[parser.cpp:1718] ".
+_SOURCE_TAG = re.compile(r"\[[\w.]+:\d+\] ")
+#: Where the parser failed: "At FILE (line L, col C): ".
+_AT = re.compile(r"At (?P<file>.+?) \((?P<where>line \d+, col \d+)\): ")
+#: The traceback Mitsuba wraps a Python plugin's exception in, up to the exception's message.
+_PLUGIN_TRACEBACK = re.compile(r"failed to instantiate \w+ plugin of type \"\w+\": "
+                               r"Traceback \(most recent call last\):\n(?:.*\n)*[\w.]+: ")
+
+
+def _loading_error(path: Path, message: str) -> SceneError:
+    """One line from Mitsuba's loading error: its source tags and the traceback around a Python
+    plugin's exception (an invalid acoustic material) removed, the failure located as
+    'FILE (line L, col C)' where Mitsuba says where."""
+    message = _PLUGIN_TRACEBACK.sub("", _SOURCE_TAG.sub("", message))
+    at = _AT.match(message)
+    if at is None:
+        return SceneError(f"{path}: {message}")
+    where = f"{at['file']} ({at['where']})"
+    if at["file"] != str(path):  # in an included file
+        where = f"{path}: {where}"
+    return SceneError(f"{where}: {message[at.end():]}")
 
 
 # ---- ground-truth geometry -----------------------------------------------------------------

@@ -80,6 +80,7 @@ def test_invalid_material_in_file_names_file_and_material(scene_file, props, mes
         mitsonar.load_scene(path)
     text = str(err.value)
     assert "bad.xml" in text and "broken_wall" in text and message in text
+    assert "Traceback" not in text and "\n" not in text  # Mitsuba's wrapping removed
 
 
 def test_malformed_xml_names_the_file(tmp_path):
