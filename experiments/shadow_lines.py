@@ -47,7 +47,8 @@ from mitsonar.physics.beampattern import in_fov
 from mitsonar.data.io import write_table
 from mitsonar.evaluation.metrics import evaluate, sample_surface, visible_from
 from mitsonar.plots import _pyplot, save_png
-from mitsonar.scene.loading import material_xml, scene_mesh, spanned_rectangle_xml
+from mitsonar.scene.loading import scene_mesh
+from mitsonar.scene.xml import material_xml, spanned_rectangle_xml
 from mitsonar.recon.surfels import SurfelSettings, map_surfels, plane_colours, tone_map
 
 CREASE = np.array([2.0, 2.0, 0.0])  # where the two walls and the floor meet [m]

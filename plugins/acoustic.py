@@ -38,10 +38,10 @@ def material_from_properties(props: mi.Properties) -> AcousticMaterial:
         raise ValueError(f"acoustic material '{mat_id}': unknown properties {unknown}; "
                          f"expected {sorted(_KNOWN)}")
     try:
-        base = preset(props["preset"]) if "preset" in props else None
+        base = preset(str(props["preset"])) if "preset" in props else None
     except ValueError as err:
         raise ValueError(f"acoustic material '{mat_id}': {err}") from None
-    changes = {k: float(props[k]) for k in ("impedance", "absorption", "scattering")
+    changes = {k: _number(props, k, mat_id) for k in ("impedance", "absorption", "scattering")
                if k in props}
     if base is None:
         if "impedance" not in changes and "absorption" not in changes:
@@ -52,6 +52,15 @@ def material_from_properties(props: mi.Properties) -> AcousticMaterial:
         return base.with_changes(name=mat_id, **changes)
     except ValueError as err:
         raise ValueError(f"acoustic material '{mat_id}': {err}") from None
+
+
+def _number(props: mi.Properties, key: str, mat_id: str) -> float:
+    """Property ``key`` as a float (a <float>, <integer> or numeric <string>)."""
+    try:
+        return float(props[key])
+    except (TypeError, ValueError):
+        raise ValueError(f"acoustic material '{mat_id}': {key} must be a number, "
+                         f"got {props[key]!r}") from None
 
 
 class AcousticBSDF(mi.BSDF):

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from helpers import write_scene
+from mitsonar.scene.xml import write_scene
 
 
 @pytest.fixture

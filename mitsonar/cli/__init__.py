@@ -10,24 +10,33 @@ import argparse
 import importlib
 import sys
 
+from mitsonar.cli.arguments import Parser
+
 #: Command groups, in the order ``mitsonar --help`` lists them.
 COMMAND_MODULES: list[str] = ["mitsonar.cli.scan", "mitsonar.cli.map", "mitsonar.cli.dataset",
                               "mitsonar.cli.evaluate", "mitsonar.cli.array"]
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="mitsonar", description=__doc__.splitlines()[0])
-    sub = parser.add_subparsers(dest="command", required=True)
+    """The ``mitsonar`` parser with every command's sub-parser."""
+    parser = Parser(prog="mitsonar",
+                    description="Simulate a 40 kHz ultrasonic phased array and a camera in "
+                                "Mitsuba scenes: scans, maps, datasets, scores, array design. "
+                                "Angles in degrees, everything else in SI units.")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND",
+                                help="what to run ('mitsonar COMMAND --help' lists its options)")
     for name in COMMAND_MODULES:
         importlib.import_module(name).add_cli(sub)
     return parser
 
 
 def main(argv=None) -> int:
+    """Run ``mitsonar`` on ``argv`` (default: the command line); returns the exit status."""
     args = build_parser().parse_args(argv)
     try:
         return args.func(args)
-    except (ValueError, FileNotFoundError) as err:  # user errors: one clear line, no traceback
+    except (ValueError, FileNotFoundError, argparse.ArgumentTypeError) as err:
+        # user errors: one clear line, no traceback
         print(f"mitsonar {args.command}: error: {err}", file=sys.stderr)
         return 2
 

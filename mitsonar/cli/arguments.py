@@ -1,14 +1,72 @@
-"""Argument types and options shared by the commands: degrees and robot poses at this boundary,
-SI inside."""
+"""Argument types, options and the parser shared by the commands: degrees and robot poses at this
+boundary, SI inside."""
 
 from __future__ import annotations
 
 import argparse
+import re
+import sys
 from pathlib import Path
 
 import numpy as np
 
 from mitsonar.sensors.trajectory import Trajectory
+
+#: A value that starts like a negative number ('-1.8,0,0', '-.5'), not like an option.
+_NEGATIVE = re.compile(r"-\.?\d")
+
+
+class Parser(argparse.ArgumentParser):
+    """An ArgumentParser (and, through ``add_subparsers``, its sub-parsers) whose errors are one
+    line, and that reads ``--pose -1.8,0,0`` as ``--pose=-1.8,0,0``: argparse alone takes a
+    value starting with '-' for an option unless it is a plain number."""
+
+    def parse_known_args(self, args=None, namespace=None):
+        args = sys.argv[1:] if args is None else list(args)
+        return super().parse_known_args(self._join_negative_values(args), namespace)
+
+    def _join_negative_values(self, args: list[str]) -> list[str]:
+        """``[..., '--opt', '-1,2', ...]`` -> ``[..., '--opt=-1,2', ...]`` for this parser's
+        options that take one value; nothing after ``--`` is touched."""
+        joined: list[str] = []
+        for k, token in enumerate(args):
+            if token == "--":
+                return joined + args[k:]
+            action = self._option_string_actions.get(joined[-1]) if joined else None
+            if action is not None and action.nargs is None and _NEGATIVE.match(token):
+                joined[-1] = f"{joined[-1]}={token}"
+            else:
+                joined.append(token)
+        return joined
+
+    def error(self, message):
+        """Print ``message`` on one line (not the usage) and exit with status 2."""
+        self.exit(2, f"{self.prog}: error: {message} (see '{self.prog} --help')\n")
+
+
+def output_directory(text) -> Path:
+    """argparse type of an output directory: absent (it is created) or a directory. Raises
+    ArgumentTypeError naming the file in the way where it, or a folder on its path, is a file."""
+    path = Path(text)
+    _check_folders(path, [*reversed(path.parents), path])
+    return path
+
+
+def output_file(text) -> Path:
+    """argparse type of an output file: not a directory, and no file where its folders go."""
+    path = Path(text)
+    _check_folders(path, reversed(path.parents))
+    if path.is_dir():
+        raise argparse.ArgumentTypeError(f"{path} is a directory, not a file")
+    return path
+
+
+def _check_folders(path: Path, folders) -> None:
+    """Raise ArgumentTypeError if one of ``folders`` (on the way to ``path``) is a file."""
+    for folder in folders:
+        if folder.exists() and not folder.is_dir():
+            where = "" if folder == path else f"{path}: "
+            raise argparse.ArgumentTypeError(f"{where}{folder} is a file, not a directory")
 
 
 def parse_pose(text: str) -> tuple[float, float, float]:
@@ -33,11 +91,25 @@ def parse_fov(text: str) -> tuple[float, float]:
     return np.radians(h), np.radians(v)
 
 
+def add_scene_argument(parser) -> None:
+    """The positional ``scene``: the Mitsuba XML scene the command works in."""
+    parser.add_argument("scene", type=Path,
+                        help="Mitsuba XML scene file with acoustic materials (metres, z up)")
+
+
+def add_preset_argument(parser) -> None:
+    """The ``--preset`` option: a named sonar configuration (``SonarConfig.preset``)."""
+    parser.add_argument("--preset", choices=("default", "paper"), default="default",
+                        help="sonar model: 'default' (the physical model) or 'paper' (the "
+                             "paper's: point reflectors, ideal transducers, 340 m/s) "
+                             "(default: default)")
+
+
 def add_trajectory_argument(parser) -> None:
     """The ``--trajectory PATH.json`` option of commands that move along a scene's trajectory."""
     parser.add_argument("--trajectory", type=Path, default=None,
-                        help="trajectory JSON ({'waypoints': [[x_m, y_m, yaw_deg], ...], "
-                             "'speed_m_s', 'yaw_rate_deg_s'}; default: the one in the scene's "
+                        help="trajectory JSON file ({'waypoints': [[x_m, y_m, yaw_deg], ...], "
+                             "'speed_m_s', 'yaw_rate_deg_s'}) (default: the one in the scene's "
                              "ground_truth.json)")
 
 

@@ -6,6 +6,7 @@ import sys
 import time
 from pathlib import Path
 
+from mitsonar.cli.arguments import output_directory, output_file
 from mitsonar.data.io import write_json
 from mitsonar.design.evaluation import BeamCriteria, evaluate_layout, uniform_pair
 from mitsonar.design.figures import make_figures, metrics_rows
@@ -18,7 +19,8 @@ def add_cli(subparsers) -> None:
     p = subparsers.add_parser("array", help="design and plot the sparse transmit/receive arrays",
                               description="Sparse 5x5 array design by genetic algorithm, and "
                                           "beam-pattern figures.")
-    sub = p.add_subparsers(dest="array_command", required=True)
+    sub = p.add_subparsers(dest="array_command", required=True, metavar="COMMAND",
+                           help="what to run ('mitsonar array COMMAND --help' lists its options)")
     d = sub.add_parser(
         "design", help="run the genetic algorithm and write the layout JSON",
         description="Design the interleaved transmit and receive 5x5 layouts by a seeded genetic "
@@ -29,11 +31,12 @@ def add_cli(subparsers) -> None:
     d.add_argument("--seed", type=int, default=defaults.seed,
                    help=f"seed of the genetic algorithm (default {defaults.seed})")
     d.add_argument("--generations", type=int, default=defaults.generations,
-                   help=f"generations (default {defaults.generations})")
+                   help=f"generations the algorithm runs (default {defaults.generations})")
     d.add_argument("--population", type=int, default=defaults.population,
                    help=f"layouts per generation (default {defaults.population})")
-    d.add_argument("--out", type=Path, default=None,
-                   help="layout JSON to write (default: the shipped mitsonar/physics/array_layout.json)")
+    d.add_argument("--out", type=output_file, default=None,
+                   help="layout JSON file to write, replaced if present (default: the shipped "
+                        "mitsonar/physics/array_layout.json)")
     d.set_defaults(func=_run_design)
     _add_plot(sub)
 
@@ -69,9 +72,11 @@ def _add_plot(subparsers) -> None:
                     "uniform vs optimised beam patterns at 0 deg and steered, PSLL and 3 dB width "
                     "over the field of view (PNG), and a table of PSLL and widths (CSV, Markdown).")
     p.add_argument("--layout", type=Path, default=None,
-                   help="layout JSON (default: the shipped mitsonar/physics/array_layout.json)")
-    p.add_argument("--out", type=Path, default=Path("out/array"),
-                   help="output directory (default out/array)")
+                   help="layout JSON file (default: the shipped "
+                        "mitsonar/physics/array_layout.json)")
+    p.add_argument("--out", type=output_directory, default="out/array",
+                   help="output directory, created if absent; its files are replaced "
+                        "(default out/array)")
     p.set_defaults(func=_run_plot)
 
 

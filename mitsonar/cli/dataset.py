@@ -6,32 +6,40 @@ from pathlib import Path
 
 import numpy as np
 
+from mitsonar.cli.arguments import add_preset_argument, add_scene_argument, output_directory
 from mitsonar.data.dataset import DatasetSpec, open_dataset, render_dataset
 
 
 def add_cli(subparsers) -> None:
     """``mitsonar dataset render|info``."""
     ds = subparsers.add_parser("dataset", help="paired camera + echo datasets along trajectories")
-    sub = ds.add_subparsers(dest="dataset_command", required=True)
+    sub = ds.add_subparsers(dest="dataset_command", required=True, metavar="COMMAND",
+                           help="what to run ('mitsonar dataset COMMAND --help' lists its options)")
     r = sub.add_parser("render", help="render (or resume) a dataset along the scene's trajectory",
                        description="Render camera images, per-microphone echoes of a beam scan, "
                                    "poses and calibration for every sample along a trajectory. "
                                    "Interrupted renders resume where they stopped.")
-    r.add_argument("scene", type=Path)
-    r.add_argument("--out", type=Path, required=True)
-    r.add_argument("--period", type=float, default=1.0, help="seconds between samples (default 1)")
+    add_scene_argument(r)
+    r.add_argument("--out", type=output_directory, required=True,
+                   help="dataset directory, created if absent; a partial render there resumes")
+    r.add_argument("--period", type=float, default=1.0,
+                   help="time between samples along the trajectory [s] (default 1)")
     r.add_argument("--step", type=float, default=10.0, help="beam grid step [deg] (default 10)")
-    r.add_argument("--width", type=int, default=400, help="image width [px] (default 400)")
+    r.add_argument("--width", type=int, default=400, help="image width [pixels] (default 400)")
     r.add_argument("--spp", type=int, default=16, help="camera samples per pixel (default 16)")
-    r.add_argument("--samples", type=int, default=None, help="render only the first N samples")
-    r.add_argument("--seed", type=int, default=0)
-    r.add_argument("--preset", default="default", help="sonar preset: default or paper")
+    r.add_argument("--samples", type=int, default=None,
+                   help="render only the first N samples (default: all)")
+    r.add_argument("--seed", type=int, default=0,
+                   help="base seed of the noise, diffuse phases, odometry drift and renderer "
+                        "(default 0)")
+    add_preset_argument(r)
     r.add_argument("--workers", type=int, default=1, help="local worker processes (default 1)")
     r.add_argument("--scheduler", default=None,
-                   help="Dask scheduler address, or 'local' for a Dask LocalCluster of --workers")
+                   help="Dask scheduler address, or 'local' for a Dask LocalCluster of --workers "
+                        "(default: none, local processes)")
     r.set_defaults(func=_run_render)
     i = sub.add_parser("info", help="summarise a dataset and check every file")
-    i.add_argument("path", type=Path)
+    i.add_argument("path", type=Path, help="dataset directory (as written by dataset render)")
     i.set_defaults(func=_run_info)
 
 

@@ -6,6 +6,7 @@ import csv
 import sys
 from pathlib import Path
 
+from mitsonar.cli.arguments import output_directory
 from mitsonar.data.io import atomic_path, write_json
 from mitsonar.evaluation.metrics import DEFAULT_THRESHOLD, evaluate, read_points, save_error_figure
 from mitsonar.validation import check_positive
@@ -21,18 +22,22 @@ def add_cli(subparsers) -> None:
     e.add_argument("recon", type=Path, help="reconstructed point cloud (PLY, world frame, metres)")
     e.add_argument("scene", type=Path, help="Mitsuba XML scene it was reconstructed from")
     e.add_argument("--threshold", type=float, default=DEFAULT_THRESHOLD,
-                   help="distance threshold [m] (default 0.02)")
+                   help="distance within which a point is accurate and a ground-truth sample "
+                        f"is covered [m] (default {DEFAULT_THRESHOLD:g})")
     e.add_argument("--spacing", type=float, default=0.01,
                    help="ground-truth sample spacing [m] (default 0.01: one per cm^2)")
-    e.add_argument("--seed", type=int, default=0, help="seed of the ground-truth samples")
-    e.add_argument("--out", type=Path, default=None,
-                   help="output directory (default: RECON's folder / <RECON name>_metrics)")
+    e.add_argument("--seed", type=int, default=0,
+                   help="seed of the ground-truth samples (default 0)")
+    e.add_argument("--out", type=output_directory, default=None,
+                   help="output directory, created if absent (default: <RECON name>_metrics "
+                        "beside RECON)")
     e.set_defaults(func=_run_evaluate)
 
 
 def _run_evaluate(args) -> int:
     from mitsonar.scene.loading import load_scene, scene_mesh
 
+    out = args.out or output_directory(args.recon.parent / f"{args.recon.stem}_metrics")
     check_positive("--threshold [m]", args.threshold)
     check_positive("--spacing [m]", args.spacing)
     points = read_points(args.recon)
@@ -40,7 +45,6 @@ def _run_evaluate(args) -> int:
     print(f"Scoring {len(points)} points against {len(mesh.triangles)} triangles "
           f"({mesh.triangle_areas().sum():.1f} m^2) ...", file=sys.stderr)
     result = evaluate(points, mesh, args.threshold, spacing=args.spacing, seed=args.seed)
-    out = args.out or args.recon.parent / f"{args.recon.stem}_metrics"
     write_json(out / "metrics.json", {"recon": str(args.recon), "scene": str(args.scene),
                                       "spacing_m": args.spacing, "seed": args.seed,
                                       **result.to_dict()})

@@ -3,11 +3,12 @@
 from __future__ import annotations
 
 import sys
-from pathlib import Path
 
 import numpy as np
 
-from mitsonar.cli.arguments import add_trajectory_argument, trajectory_from_args
+from mitsonar.cli.arguments import (add_preset_argument, add_scene_argument,
+                                    add_trajectory_argument, output_directory,
+                                    trajectory_from_args)
 from mitsonar.recon.repeated import REGISTRATIONS, RepeatedMapSpec, map_repeated
 from mitsonar.recon.surfels import SurfelSettings, map_surfels, save_surfel_map, summary
 from mitsonar.recon.voxelmap import VoxelMapSettings, save_voxel_figure, save_voxel_ply
@@ -18,25 +19,30 @@ from mitsonar.sensors.trajectory import sensor_poses
 def add_cli(subparsers) -> None:
     """``mitsonar map repeated`` and ``mitsonar map surfel``."""
     m = subparsers.add_parser("map", help="reconstruction maps")
-    sub = m.add_subparsers(dest="map_command", required=True)
+    sub = m.add_subparsers(dest="map_command", required=True, metavar="COMMAND",
+                           help="what to run ('mitsonar map COMMAND --help' lists its options)")
     r = sub.add_parser("repeated", help="OFDM repeated scanning into a coloured voxel map",
                        description="Fire OFDM frames along the scene's default trajectory (or the "
                                    "waypoints given), colour the points from the camera and "
                                    "voxelise them.")
-    r.add_argument("scene", type=Path)
-    r.add_argument("--out", type=Path, required=True)
+    add_scene_argument(r)
+    r.add_argument("--out", type=output_directory, required=True,
+                   help="output directory, created if absent; its files are replaced")
     add_trajectory_argument(r)
-    r.add_argument("--frames", type=int, default=5)
+    r.add_argument("--frames", type=int, default=5,
+                   help="OFDM frames fired along the trajectory (default 5)")
     r.add_argument("--step", type=float, default=5.0, help="beam grid step [deg] (default 5)")
     r.add_argument("--voxel", type=float, default=0.05, help="voxel size [m] (default 0.05)")
-    r.add_argument("--speed", type=float, default=None, help="override the trajectory speed [m/s]")
-    r.add_argument("--preset", default="default", help="sonar preset: default or paper")
+    r.add_argument("--speed", type=float, default=None,
+                   help="robot speed along the trajectory [m/s] (default: the trajectory's)")
+    add_preset_argument(r)
     r.add_argument("--broadband", action="store_true",
                    help="broadband transducers (20 kHz at -6 dB) instead of the 2 kHz TCT40 class")
     r.add_argument("--registration", choices=REGISTRATIONS, default="beam",
-                   help="each beam's pose at firing (default) or one odometry pose per frame "
-                        "(the paper's)")
-    r.add_argument("--seed", type=int, default=0)
+                   help="pose of the points: each beam's pose at firing ('beam') or one odometry "
+                        "pose per frame ('frame', the paper's) (default: beam)")
+    r.add_argument("--seed", type=int, default=0,
+                   help="seed of the noise and the diffuse phases (default 0)")
     r.set_defaults(func=_run_repeated)
     _add_surfel(sub)
 
@@ -76,15 +82,18 @@ def _add_surfel(map_subparsers) -> None:
         description="Along a trajectory: camera lines -> triangle surfels -> "
                     "4 pings each -> verified surfels -> plane groups -> planes grown between "
                     "the image lines; scored against the scene's ground truth.")
-    s.add_argument("scene", type=Path)
-    s.add_argument("--out", type=Path, required=True)
+    add_scene_argument(s)
+    s.add_argument("--out", type=output_directory, required=True,
+                   help="output directory, created if absent; its files are replaced")
     add_trajectory_argument(s)
-    s.add_argument("--frames", type=int, default=5, help="poses spread evenly over the trajectory")
-    s.add_argument("--width", type=int, default=400, help="camera image width [pixels]")
+    s.add_argument("--frames", type=int, default=5,
+                   help="camera poses spread evenly over the trajectory (default 5)")
+    s.add_argument("--width", type=int, default=400,
+                   help="camera image width [pixels] (default 400)")
     s.add_argument("--spp", type=int, default=8, help="camera samples per pixel (default 8)")
-    s.add_argument("--preset", choices=("default", "paper"), default="default",
-                   help="sonar model (SonarConfig.preset)")
-    s.add_argument("--seed", type=int, default=0)
+    add_preset_argument(s)
+    s.add_argument("--seed", type=int, default=0,
+                   help="seed of the camera images and the pings (default 0)")
     s.set_defaults(func=_run_surfel)
 
 

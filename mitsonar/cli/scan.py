@@ -8,7 +8,8 @@ from pathlib import Path
 
 import numpy as np
 
-from mitsonar.cli.arguments import parse_fov, parse_pose
+from mitsonar.cli.arguments import (add_preset_argument, add_scene_argument, output_directory,
+                                    parse_fov, parse_pose)
 
 
 def add_cli(subparsers) -> None:
@@ -18,16 +19,19 @@ def add_cli(subparsers) -> None:
         description="Ping every direction of a grid over the field of view from one robot pose; "
                     "write the point cloud (PLY), the echoes (NPZ), a summary (JSON) and a "
                     "picture (PNG).")
-    p.add_argument("scene", type=Path, help="Mitsuba XML scene with acoustic materials")
+    add_scene_argument(p)
     p.add_argument("--pose", type=parse_pose, default=(0.0, 0.0, 0.0),
                    help="robot pose 'x,y,yaw': metres, metres, degrees (default 0,0,0)")
     p.add_argument("--fov", type=parse_fov, default=None,
-                   help="scanned field of view 'HxV' in degrees (default: the array's, 60x40)")
-    p.add_argument("--step", type=float, default=5.0, help="grid step [deg] (default 5)")
-    p.add_argument("--preset", default="default", help="sonar preset: default or paper")
-    p.add_argument("--config", type=Path, help="TOML sonar configuration (overrides --preset)")
-    p.add_argument("--seed", type=int, default=0, help="seed of noise and diffuse phases")
-    p.add_argument("--out", type=Path, required=True, help="output directory")
+                   help="scanned field of view 'HxV' [deg] (default: the array's, 60x40)")
+    p.add_argument("--step", type=float, default=5.0, help="beam grid step [deg] (default 5)")
+    add_preset_argument(p)
+    p.add_argument("--config", type=Path, default=None,
+                   help="TOML sonar configuration file, overriding --preset (default: none)")
+    p.add_argument("--seed", type=int, default=0,
+                   help="seed of the noise and the diffuse phases (default 0)")
+    p.add_argument("--out", type=output_directory, required=True,
+                   help="output directory, created if absent; its files are replaced")
     p.set_defaults(func=_run_scan)
 
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
@@ -93,7 +94,7 @@ def load_scene(path, default_material: AcousticMaterial | None = None) -> Acoust
     try:
         scene = mi.load_file(str(path), optimize=False)
     except Exception as err:  # Mitsuba raises RuntimeError/ValueError with the parser's message
-        raise SceneError(f"{path}: {err}") from None
+        raise _loading_error(path, str(err)) from None
     default = default_material or preset(DEFAULT_MATERIAL_NAME)
     shapes = list(scene.shapes())
     if not shapes:
@@ -124,6 +125,29 @@ def load_scene(path, default_material: AcousticMaterial | None = None) -> Acoust
     table[registry_ids] = shape_material
     return AcousticScene(path, scene, [s.id() for s in shapes], materials, shape_material,
                          registry_ids, table)
+
+
+#: Mitsuba's source location before its messages, e.g. "[parser.cpp:1718] ".
+_SOURCE_TAG = re.compile(r"\[[\w.]+:\d+\] ")
+#: Where the parser failed: "At FILE (line L, col C): ".
+_AT = re.compile(r"At (?P<file>.+?) \((?P<where>line \d+, col \d+)\): ")
+#: The traceback Mitsuba wraps a Python plugin's exception in, up to the exception's message.
+_PLUGIN_TRACEBACK = re.compile(r"failed to instantiate \w+ plugin of type \"\w+\": "
+                               r"Traceback \(most recent call last\):\n(?:.*\n)*[\w.]+: ")
+
+
+def _loading_error(path: Path, message: str) -> SceneError:
+    """One line from Mitsuba's loading error: its source tags and the traceback around a Python
+    plugin's exception (an invalid acoustic material) removed, the failure located as
+    'FILE (line L, col C)' where Mitsuba says where."""
+    message = _PLUGIN_TRACEBACK.sub("", _SOURCE_TAG.sub("", message))
+    at = _AT.match(message)
+    if at is None:
+        return SceneError(f"{path}: {message}")
+    where = f"{at['file']} ({at['where']})"
+    if at["file"] != str(path):  # in an included file
+        where = f"{path}: {where}"
+    return SceneError(f"{where}: {message[at.end():]}")
 
 
 # ---- ground-truth geometry -----------------------------------------------------------------
@@ -274,25 +298,3 @@ def _sphere(segments: int):
 
 
 _TESSELLATORS = {"Disk": _disk, "Cylinder": _cylinder, "Sphere": _sphere}
-
-
-# ---- small scenes written by scripts and tests ----------------------------------------------
-def material_xml(material: str, reflectance: float | str | None = None, **acoustic) -> str:
-    """An ``acoustic`` BSDF ``material`` around a diffuse BSDF of ``reflectance`` (a grey value
-    in [0, 1], or "r, g, b"; None: Mitsuba's default); the ``acoustic`` parameters (e.g.
-    ``preset="drywall"``, ``impedance=...``) become <string> (text) or <float> elements."""
-    params = "".join(f'<{"string" if isinstance(v, str) else "float"} name="{k}" value="{v}"/>'
-                     for k, v in acoustic.items())
-    diffuse = '<bsdf type="diffuse"/>' if reflectance is None else \
-        f'<bsdf type="diffuse"><rgb name="reflectance" value="{reflectance}"/></bsdf>'
-    return f'<bsdf type="acoustic" id="{material}">{params}{diffuse}</bsdf>'
-
-
-def spanned_rectangle_xml(material: str, centre, e1, e2, half) -> str:
-    """A rectangle centred at ``centre`` (3,) [m] spanning +-half[0] [m] along e1 and +-half[1]
-    [m] along e2 (directions, normalised here); its lit side faces e1 x e2."""
-    e1, e2 = (np.asarray(e, float) / np.linalg.norm(e) for e in (e1, e2))
-    m = np.column_stack([e1 * half[0], e2 * half[1], np.cross(e1, e2), centre])
-    rows = "  ".join(", ".join(f"{x:.9g}" for x in row) for row in m)
-    return (f'<shape type="rectangle"><transform name="to_world">'
-            f'<matrix value="{rows}  0, 0, 0, 1"/></transform><ref id="{material}"/></shape>')

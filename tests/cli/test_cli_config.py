@@ -8,8 +8,7 @@ import pytest
 import mitsonar
 from mitsonar import _native
 from mitsonar.cli import main
-from helpers import rectangle_xml
-from mitsonar.scene.loading import material_xml
+from mitsonar.scene.xml import material_xml, rectangle_xml
 
 
 @pytest.fixture

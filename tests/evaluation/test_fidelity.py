@@ -24,8 +24,8 @@ def test_presets_set_the_knobs_and_keep_the_noise_density():
 def test_a_wall_at_normal_incidence_needs_only_the_draft_level(scene_file):
     """A specular wall is converged with the coarsest grid: the choice stops at 'draft' (depths
     agree with 'fine' to well under 1 mm)."""
-    from helpers import IDENTITY, rectangle_xml
-    from mitsonar.scene.loading import material_xml
+    from helpers import IDENTITY
+    from mitsonar.scene.xml import material_xml, rectangle_xml
 
     wall = load_scene(scene_file("wall", material_xml("w", preset="glass", scattering=0.0),
                                  rectangle_xml("w", (0, 0, 2.0))))

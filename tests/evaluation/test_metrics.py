@@ -11,10 +11,9 @@ from mitsonar.cli import main
 from mitsonar.data.io import write_ply
 from mitsonar.evaluation.metrics import (Scores, error_jumps, evaluate, point_to_mesh, sample_surface,
                               visible_from)
-from mitsonar.scene.loading import SceneError, scene_mesh
-from helpers import rectangle_xml
-from mitsonar.scene.loading import material_xml
 from helpers import SCENES
+from mitsonar.scene.loading import SceneError, scene_mesh
+from mitsonar.scene.xml import material_xml, rectangle_xml
 
 TRANSMITTING = {"dielectric", "thindielectric", "roughdielectric"}
 

@@ -11,8 +11,8 @@ from mitsonar.sensors.camera import CameraModel, CameraRenderer
 from mitsonar.frames import direction_from_angles, fov_angles
 from mitsonar.recon.lines import (_angle_neighbours, clip_segments, close_junctions, detect_segments,
                             fov_crop_box, merge_collinear, scan_directions, scan_pixels, triangle_surfels)
-from mitsonar.scene.loading import material_xml, spanned_rectangle_xml
 from helpers import IDENTITY
+from mitsonar.scene.xml import material_xml, spanned_rectangle_xml
 
 CAMERA = CameraModel()
 GEOMETRY = ArrayGeometry()

@@ -9,8 +9,7 @@ from mitsonar.sensors.camera import CameraModel
 from mitsonar.recon.surfels import (CheckPings, PlaneGroups, PoseScan, SurfelSettings, fit_plane,
                               group_surfels, grow_planes, map_surfels, region_labels,
                               shadow_segments, verify)
-from mitsonar.scene.loading import material_xml, spanned_rectangle_xml
-from helpers import write_scene
+from mitsonar.scene.xml import material_xml, spanned_rectangle_xml, write_scene
 
 
 def test_verification_rejects_a_surfel_straddling_two_planes():

@@ -10,7 +10,7 @@ from mitsonar.frames import Pose, direction_from_fov_angles
 from mitsonar.recon.voxelmap import (VoxelMap, VoxelMapSettings, bilinear_sample, colourise,
                                linear_to_srgb, save_voxel_figure, save_voxel_ply, srgb_to_linear,
                                statistical_outliers, voxelise)
-from mitsonar.scene.loading import material_xml
+from mitsonar.scene.xml import material_xml, rectangle_xml, write_scene
 
 # 160 x 120, f = 133.3 px; the raw render, exact at one sample per pixel (a denoiser would
 # smooth the checker)
@@ -63,10 +63,8 @@ def checker_wall(tmp_path_factory):
             f'<string name="filename" value="{folder / "checker.png"}"/>'
             f'<string name="filter_type" value="nearest"/></texture></emitter>'
             f'<ref id="w"/></shape>')
-    path = folder / "wall.xml"
-    path.write_text('<scene version="3.0.0">\n' + material_xml("w", preset="drywall") + wall
-                    + "\n</scene>\n")
-    return mitsonar.load_scene(path)
+    return mitsonar.load_scene(write_scene(folder / "wall.xml",
+                                           material_xml("w", preset="drywall"), wall))
 
 
 def texture_srgb(scene, origin, points):
@@ -342,8 +340,6 @@ def test_checkerboard_wall_gives_voxels_with_the_colours_of_its_squares(scene_fi
     rough wall 2.1 m ahead with a red/blue checkerboard of 1 m squares. The expected colour of each
     voxel is the texture (Mitsuba's own checkerboard) at the wall point the camera sees there;
     voxels within 6 cm of a square's edge (voxel size + footprint) are not judged."""
-    from helpers import rectangle_xml
-
     from mitsonar.recon.repeated import RepeatedMapSpec, map_repeated
     from mitsonar.scene.loading import mitsuba
 
@@ -386,8 +382,6 @@ def test_checkerboard_wall_gives_voxels_with_the_colours_of_its_squares(scene_fi
 
 def test_repeated_frames_are_spread_by_the_interval(scene_file):
     """Frame k starts (pose, camera image) at k x interval; shorter than a frame is refused."""
-    from helpers import rectangle_xml
-
     from mitsonar.recon.repeated import RepeatedMapSpec, map_repeated
     from mitsonar.sensors.ofdm_sonar import pose_along
 

@@ -7,8 +7,7 @@ import pytest
 
 import mitsonar
 from mitsonar.scene.loading import DefaultMaterialWarning, SceneError
-from helpers import rectangle_xml
-from mitsonar.scene.loading import material_xml
+from mitsonar.scene.xml import material_xml, rectangle_xml
 
 Z_AIR = mitsonar.Medium().impedance
 
@@ -81,6 +80,7 @@ def test_invalid_material_in_file_names_file_and_material(scene_file, props, mes
         mitsonar.load_scene(path)
     text = str(err.value)
     assert "bad.xml" in text and "broken_wall" in text and message in text
+    assert "Traceback" not in text and "\n" not in text  # Mitsuba's wrapping removed
 
 
 def test_malformed_xml_names_the_file(tmp_path):

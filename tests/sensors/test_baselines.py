@@ -9,8 +9,7 @@ from mitsonar.sensors.baselines import (DepthCamera, DepthCameraModel, Lidar, Li
 from mitsonar.frames import SENSOR_MOUNT_TRANSLATION
 from mitsonar.evaluation.metrics import evaluate
 from mitsonar.scene.loading import scene_mesh
-from helpers import rectangle_xml
-from mitsonar.scene.loading import material_xml
+from mitsonar.scene.xml import material_xml, rectangle_xml
 
 #: Box room: x in [-3, 3], y in [-2, 2], z in [0, 2.5] [m]; rectangles overlap at the edges.
 BOX_LO, BOX_HI = np.array([-3.0, -2.0, 0.0]), np.array([3.0, 2.0, 2.5])

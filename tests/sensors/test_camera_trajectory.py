@@ -7,8 +7,8 @@ import mitsonar
 from mitsonar.sensors.camera import CameraModel, CameraRenderer
 from mitsonar.frames import direction_from_angles
 from mitsonar.sensors.trajectory import OdometryDrift, Trajectory
-from helpers import IDENTITY, rectangle_xml
-from mitsonar.scene.loading import material_xml
+from helpers import IDENTITY
+from mitsonar.scene.xml import material_xml, rectangle_xml
 
 SMALL = CameraModel().at_resolution(160)
 

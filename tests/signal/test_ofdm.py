@@ -61,8 +61,8 @@ def test_25_simultaneous_targets_are_decoded_in_one_cycle(scene_file):
     """25 spheres at distinct directions (10 x 8 deg grid) and ranges (2.0-3.2 m), sized so their
     echoes are comparable, one cycle, broadband transducers (20 kHz at -6 dB): every code is
     decoded within 1 cm and the cross-talk the other codes leave is 6 dB below the echo."""
-    from helpers import IDENTITY, sphere_xml
-    from mitsonar.scene.loading import material_xml
+    from helpers import IDENTITY
+    from mitsonar.scene.xml import material_xml, sphere_xml
 
     from mitsonar.frames import direction_from_fov_angles
     from mitsonar.sensors.ofdm_sonar import OfdmSonar
@@ -99,8 +99,8 @@ def test_wall_at_rest_has_the_same_depth_from_ofdm_frames_as_from_single_beam_pi
     single pings differ by a few cm (different codes -> different speckle); the wall is compared
     as the plane fitted to each point set: offsets within 1 cm (measured 3 mm on the 117-beam
     frame), normal within 2 deg; and no OFDM point is misranged (all within 10 cm of the wall)."""
-    from helpers import IDENTITY, rectangle_xml
-    from mitsonar.scene.loading import material_xml
+    from helpers import IDENTITY
+    from mitsonar.scene.xml import material_xml, rectangle_xml
 
     from mitsonar.sensors.ofdm_sonar import OfdmSonar
 
@@ -128,8 +128,7 @@ def test_wall_at_rest_has_the_same_depth_from_ofdm_frames_as_from_single_beam_pi
 
 
 def test_a_schedule_beyond_the_arrays_field_of_view_is_refused(scene_file):
-    from helpers import rectangle_xml
-    from mitsonar.scene.loading import material_xml
+    from mitsonar.scene.xml import material_xml, rectangle_xml
 
     from mitsonar.frames import direction_from_fov_angles
     from mitsonar.sensors.ofdm_sonar import OfdmSonar

@@ -6,14 +6,13 @@ import pytest
 import mitsonar
 from mitsonar.signal.receiver import bistatic_depth
 from mitsonar.trace.paths import Paths
-from helpers import BROADSIDE, IDENTITY, rectangle_xml
-from mitsonar.scene.loading import material_xml
+from helpers import BROADSIDE, IDENTITY
+from mitsonar.scene.xml import material_xml, rectangle_xml, write_scene
 from mitsonar.evaluation.reference import direct_summation
 
 
 @pytest.fixture(scope="module")
 def wall_path(tmp_path_factory):
-    from helpers import write_scene
     return write_scene(tmp_path_factory.mktemp("wall") / "wall.xml",
                        material_xml("wall", preset="drywall"), rectangle_xml("wall", (0, 0, 1.0)))
 

@@ -13,8 +13,8 @@ import pytest
 import mitsonar
 from mitsonar.physics.beampattern import array_factor, main_lobe_width
 from mitsonar.frames import direction_from_fov_angles
-from helpers import BROADSIDE, IDENTITY, rectangle_xml, sphere_xml, write_scene
-from mitsonar.scene.loading import material_xml
+from helpers import BROADSIDE, IDENTITY
+from mitsonar.scene.xml import material_xml, rectangle_xml, sphere_xml, write_scene
 from mitsonar.evaluation.reference import image_paths, plane_images
 
 QUIET = mitsonar.SonarConfig(noise_rms=0.0)

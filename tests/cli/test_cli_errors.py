@@ -1,0 +1,127 @@
+"""Mistakes a new user makes on the command line: one line on stderr naming the thing at fault,
+exit status 2, nothing written; and every option's help says what it is and its default."""
+
+import argparse
+
+import numpy as np
+import pytest
+
+from mitsonar.cli import build_parser, main
+from mitsonar.scene.xml import material_xml, rectangle_xml
+
+
+def run(argv, capsys) -> tuple[int, str]:
+    """Exit status and stderr of ``mitsonar argv`` (argparse's own errors exit)."""
+    try:
+        code = main([str(a) for a in argv])
+    except SystemExit as exit_:
+        code = exit_.code
+    return code, capsys.readouterr().err
+
+
+def assert_one_line_error(err: str, *names: str) -> None:
+    assert err.count("\n") == 1 and err.endswith("\n"), err
+    assert "Traceback" not in err and "error:" in err
+    for name in names:
+        assert name in err, (name, err)
+
+
+@pytest.mark.parametrize("props,message", [
+    ({"impedance": -5.0}, "impedance"), ({"impedance": "nan"}, "impedance"),
+    ({"preset": "marble"}, "unknown acoustic preset 'marble'"),
+    ({"impedance": "soft"}, "impedance must be a number")])
+def test_invalid_material_is_one_line_naming_file_and_material(scene_file, tmp_path, capsys,
+                                                               props, message):
+    scene = scene_file("bad_room", material_xml("broken_wall", **props),
+                       rectangle_xml("broken_wall", (2.0, 0, 0.5), (0, -90, 0)))
+    code, err = run(["scan", scene, "--out", tmp_path / "out"], capsys)
+    assert code == 2
+    assert_one_line_error(err, "bad_room.xml (line 2", "'broken_wall'", message)
+    assert not (tmp_path / "out").exists()
+
+
+def test_material_error_in_an_included_file_names_both_files(scene_file, tmp_path, capsys):
+    scene_file("walls", material_xml("broken_wall", impedance=-1.0),
+               rectangle_xml("broken_wall", (2.0, 0, 0.5), (0, -90, 0)))
+    scene = scene_file("room", '<include filename="walls.xml"/>')
+    code, err = run(["scan", scene, "--out", tmp_path / "out"], capsys)
+    assert code == 2
+    assert_one_line_error(err, "room.xml: ", "walls.xml (line 2", "'broken_wall'")
+
+
+#: Every command with an output directory, with its other required arguments.
+OUTPUT_DIRECTORIES = [["scan", "scene.xml"], ["map", "repeated", "scene.xml"],
+                      ["map", "surfel", "scene.xml"], ["dataset", "render", "scene.xml"],
+                      ["evaluate", "cloud.ply", "scene.xml"], ["array", "plot"]]
+
+
+@pytest.mark.parametrize("command", OUTPUT_DIRECTORIES, ids=" ".join)
+@pytest.mark.parametrize("below", [False, True], ids=["file", "below_a_file"])
+def test_output_directory_that_is_a_file_is_refused(tmp_path, capsys, command, below):
+    existing = tmp_path / "results.txt"
+    existing.write_text("keep me")
+    out = existing / "run1" if below else existing
+    code, err = run(command + ["--out", out], capsys)
+    assert code == 2
+    assert_one_line_error(err, "--out", f"{existing} is a file, not a directory")
+    assert [p.name for p in tmp_path.iterdir()] == ["results.txt"]
+    assert existing.read_text() == "keep me"
+
+
+def test_evaluate_refuses_a_file_where_its_default_output_directory_goes(tmp_path, capsys):
+    (tmp_path / "cloud_metrics").write_text("keep me")
+    code, err = run(["evaluate", tmp_path / "cloud.ply", "scene.xml"], capsys)
+    assert code == 2
+    assert_one_line_error(err, "cloud_metrics is a file, not a directory")
+
+
+def test_array_design_refuses_a_directory_as_its_layout_file(tmp_path, capsys):
+    code, err = run(["array", "design", "--out", tmp_path], capsys)
+    assert code == 2
+    assert_one_line_error(err, f"{tmp_path} is a directory, not a file")
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("argv", [["scan"], ["scan", "s.xml", "--out", "o", "--preset", "best"],
+                                  ["scan", "s.xml", "--out", "o", "--pose", "1,2"], []])
+def test_argument_errors_are_one_line(capsys, argv):
+    code, err = run(argv, capsys)
+    assert code == 2
+    assert_one_line_error(err, "--help")
+
+
+def test_negative_values_follow_their_option():
+    parser = build_parser()
+    args = parser.parse_args(["scan", "s.xml", "--pose", "-1.8,-0.5,-90", "--out", "o",
+                              "--step", "-.5"])
+    np.testing.assert_allclose(args.pose, (-1.8, -0.5, -np.pi / 2))
+    assert args.step == -0.5
+    assert parser.parse_args(["map", "repeated", "--speed", "-1e-3", "s.xml", "--out", "o"]
+                             ).speed == -1e-3
+    with pytest.raises(SystemExit):  # a flag takes no value: '-1' is left as an extra argument
+        parser.parse_args(["map", "repeated", "s.xml", "--out", "o", "--broadband", "-1"])
+
+
+def parsers(parser: argparse.ArgumentParser):
+    """``parser`` and every sub-parser below it."""
+    yield parser
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for sub in action.choices.values():
+                yield from parsers(sub)
+
+
+def test_every_option_says_what_it_is_and_its_default():
+    missing = []
+    for parser in parsers(build_parser()):
+        for action in parser._actions:
+            name = f"{parser.prog} {'/'.join(action.option_strings) or action.dest}"
+            if not action.help:
+                missing.append(f"{name}: no help")
+            elif (action.default not in (None, argparse.SUPPRESS) and action.nargs != 0
+                  and "default" not in action.help):
+                missing.append(f"{name}: default {action.default!r} not named")
+            if isinstance(action, argparse._SubParsersAction):
+                missing += [f"{parser.prog} {c.dest}: no help" for c in action._choices_actions
+                            if not c.help]
+    assert not missing, "\n".join(missing)
