@@ -50,7 +50,7 @@ from mitsonar.recon.repeated import RepeatedMapSpec, map_repeated
 from mitsonar.evaluation.metrics import (DEFAULT_THRESHOLD, Evaluation, evaluate, sample_surface,
                               save_error_figure, visible_from)
 from mitsonar.plots import _pyplot, save_png
-from mitsonar.scene.loading import scene_mesh
+from mitsonar.scene.mesh import scene_mesh
 from mitsonar.recon.surfels import SurfelSettings, map_surfels
 from mitsonar.sensors.trajectory import sensor_poses
 from mitsonar.recon.voxelmap import VoxelMapSettings

@@ -47,7 +47,7 @@ from mitsonar.physics.beampattern import in_fov
 from mitsonar.data.io import write_table
 from mitsonar.evaluation.metrics import evaluate, sample_surface, visible_from
 from mitsonar.plots import _pyplot, save_png
-from mitsonar.scene.loading import scene_mesh
+from mitsonar.scene.mesh import scene_mesh
 from mitsonar.scene.xml import material_xml, spanned_rectangle_xml
 from mitsonar.recon.surfels import SurfelSettings, map_surfels, plane_colours, tone_map
 

@@ -49,7 +49,7 @@ from mitsonar.frames import SENSOR_MOUNT_TRANSLATION, Pose
 from mitsonar.data.io import write_table
 from mitsonar.evaluation.metrics import DEFAULT_THRESHOLD, point_to_mesh, sample_surface, visible_from
 from mitsonar.plots import _pyplot, save_png
-from mitsonar.scene.loading import scene_mesh
+from mitsonar.scene.mesh import scene_mesh
 
 #: Acoustic preset of each shape.
 SHAPES = {"box": "wood", "bottle": "wood", "pole": "metal"}

@@ -23,7 +23,8 @@ import mitsonar
 from mitsonar.evaluation.fidelity import PRESETS, FidelityRun, ping_at
 from mitsonar.data.io import write_table
 from mitsonar.plots import _pyplot, save_png
-from mitsonar.scene.loading import load_scene, scene_mesh
+from mitsonar.scene.loading import load_scene
+from mitsonar.scene.mesh import scene_mesh
 from mitsonar.sensors.trajectory import sensor_poses
 
 SCENES = Path(__file__).resolve().parents[1] / "scenes"

@@ -36,8 +36,10 @@ def main(argv=None) -> int:
     try:
         return args.func(args)
     except (ValueError, FileNotFoundError, argparse.ArgumentTypeError) as err:
-        # user errors: one clear line, no traceback
-        print(f"mitsonar {args.command}: error: {err}", file=sys.stderr)
+        # user errors: one clear line naming the command, no traceback
+        sub_command = getattr(args, f"{args.command}_command", None)
+        name = " ".join(filter(None, ("mitsonar", args.command, sub_command)))
+        print(f"{name}: error: {err}", file=sys.stderr)
         return 2
 
 

@@ -35,7 +35,8 @@ def add_cli(subparsers) -> None:
 
 
 def _run_evaluate(args) -> int:
-    from mitsonar.scene.loading import load_scene, scene_mesh
+    from mitsonar.scene.loading import load_scene
+    from mitsonar.scene.mesh import scene_mesh
 
     out = args.out or output_directory(args.recon.parent / f"{args.recon.stem}_metrics")
     check_positive("--threshold [m]", args.threshold)

@@ -103,7 +103,7 @@ def _run_surfel(args) -> int:
     from tqdm import tqdm
 
     from mitsonar.evaluation.metrics import evaluate
-    from mitsonar.scene.loading import scene_mesh
+    from mitsonar.scene.mesh import scene_mesh
     from mitsonar.sensors.sonar import SonarConfig
 
     if args.frames < 1:

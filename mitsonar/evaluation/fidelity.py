@@ -151,10 +151,10 @@ def ping_at(scene, config: SonarConfig, level: Fidelity, poses, directions, seed
             mesh=None) -> FidelityRun:
     """Scan the directions (B, 3) from every pose at one level (one :class:`Sonar` for all; the
     scene is loaded once by the caller) and measure the detected points against the scene's
-    ground-truth ``mesh`` (default: :func:`~mitsonar.scene.loading.scene_mesh` of it). Per-beam arrays
+    ground-truth ``mesh`` (default: :func:`~mitsonar.scene.mesh.scene_mesh` of it). Per-beam arrays
     are (len(poses) * B,), pose-major."""
     from mitsonar.evaluation.metrics import point_to_mesh
-    from mitsonar.scene.loading import scene_mesh
+    from mitsonar.scene.mesh import scene_mesh
 
     sonar = Sonar(scene, level.apply(config))
     sonar.ping(poses[0], directions[0], seed=seed)  # compile the kernels outside the timing
@@ -196,7 +196,7 @@ def choose_fidelity(scene, poses, directions, config: SonarConfig | None = None,
     Returns:
         (chosen :class:`Fidelity`, list of :class:`FidelityRun` from cheapest to the reference).
     """
-    from mitsonar.scene.loading import scene_mesh
+    from mitsonar.scene.mesh import scene_mesh
 
     check_positive("depth_tolerance [m]", depth_tolerance)
     if not 0 <= max_flips < 1:

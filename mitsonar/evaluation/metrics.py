@@ -32,7 +32,8 @@ import numpy as np
 
 from mitsonar.jit import rays
 from mitsonar.plots import save_png
-from mitsonar.scene.loading import AcousticScene, SceneMesh
+from mitsonar.scene.loading import AcousticScene
+from mitsonar.scene.mesh import SceneMesh
 from mitsonar.validation import check_finite, check_positive
 
 #: The paper's accuracy threshold [m].
@@ -286,7 +287,7 @@ def evaluate(points, mesh: SceneMesh, threshold: float = DEFAULT_THRESHOLD,
 
     Args:
         points: (N, 3) reconstructed points [m], world frame.
-        mesh: the ground truth (:func:`mitsonar.scene.loading.scene_mesh`).
+        mesh: the ground truth (:func:`mitsonar.scene.mesh.scene_mesh`).
         threshold: distance within which a point is accurate and a sample covered [m].
         samples: ground-truth samples; by default :func:`sample_surface` (``spacing`` [m],
             ``seed``).

@@ -1,3 +1,11 @@
-"""Mitsuba scenes with acoustic materials: loading (one ``mi.Scene`` serves camera, sonar and
-ground truth), the acoustic BSDF plugin's registration, triangle meshes of the ground truth, and
-the XML building blocks that scenes and tests are written from."""
+"""Mitsuba scenes with acoustic materials.
+
+* ``loading``: one ``mi.Scene`` serves camera, sonar and ground truth; the acoustic BSDF plugin's
+  registration; invalid materials reported in one line naming the file and the material.
+* ``mesh``: the ground truth, every shape as one triangle mesh in the world frame [m].
+* ``xml``: small XML pieces (materials, rectangles, spheres, whole files) for scenes written in
+  code, by tests and experiments.
+* ``building``: the building blocks of whole rooms (shell with openings, windows, lights,
+  furniture, materials, textures) and the writer of scene.xml + ground_truth.json.
+* ``shipped``: the four shipped scenes, one short module each (``scenes/generate.py`` writes them).
+"""

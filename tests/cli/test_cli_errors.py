@@ -125,3 +125,14 @@ def test_every_option_says_what_it_is_and_its_default():
                 missing += [f"{parser.prog} {c.dest}: no help" for c in action._choices_actions
                             if not c.help]
     assert not missing, "\n".join(missing)
+
+
+def test_run_time_errors_name_the_sub_command(tmp_path, capsys):
+    """An error raised while a nested command runs names that command, not only its group."""
+    from mitsonar.cli import main
+
+    missing = tmp_path / "missing"
+    assert main(["dataset", "info", str(missing)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("mitsonar dataset info: error:"), err
+    assert "\n" not in err

@@ -12,7 +12,8 @@ from mitsonar.data.io import write_ply
 from mitsonar.evaluation.metrics import (Scores, error_jumps, evaluate, point_to_mesh, sample_surface,
                               visible_from)
 from helpers import SCENES
-from mitsonar.scene.loading import SceneError, scene_mesh
+from mitsonar.scene.loading import SceneError
+from mitsonar.scene.mesh import scene_mesh
 from mitsonar.scene.xml import material_xml, rectangle_xml
 
 TRANSMITTING = {"dielectric", "thindielectric", "roughdielectric"}

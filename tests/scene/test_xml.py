@@ -2,7 +2,8 @@
 
 import numpy as np
 
-from mitsonar.scene.loading import load_scene, scene_mesh
+from mitsonar.scene.loading import load_scene
+from mitsonar.scene.mesh import scene_mesh
 from mitsonar.scene.xml import (material_xml, rectangle_xml, spanned_rectangle_xml, sphere_xml,
                                 write_scene)
 

@@ -8,7 +8,7 @@ from mitsonar.sensors.baselines import (DepthCamera, DepthCameraModel, Lidar, Li
                                 map_trajectory)
 from mitsonar.frames import SENSOR_MOUNT_TRANSLATION
 from mitsonar.evaluation.metrics import evaluate
-from mitsonar.scene.loading import scene_mesh
+from mitsonar.scene.mesh import scene_mesh
 from mitsonar.scene.xml import material_xml, rectangle_xml
 
 #: Box room: x in [-3, 3], y in [-2, 2], z in [0, 2.5] [m]; rectangles overlap at the edges.

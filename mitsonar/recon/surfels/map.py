@@ -59,7 +59,7 @@ class SurfelMap:
         """Points (M, 3) [m] sampled uniformly on the mesh, one per ``spacing``^2 (metrics'
         :func:`~mitsonar.evaluation.metrics.sample_surface`), and their plane group (M,)."""
         from mitsonar.evaluation.metrics import sample_surface
-        from mitsonar.scene.loading import SceneMesh
+        from mitsonar.scene.mesh import SceneMesh
 
         n = len(self.groups)
         mesh = SceneMesh(self.vertices, self.triangles, self.plane,
