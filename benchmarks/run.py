@@ -23,7 +23,7 @@ import numpy as np
 
 import mitsonar
 from mitsonar.evaluation.fidelity import fidelity
-from mitsonar.jit import rays
+from mitsonar.scene.rays import rays
 from mitsonar.sensors.ofdm_sonar import OfdmSonar
 from mitsonar.evaluation.reference import direct_summation
 from mitsonar.sensors.sonar import TRACE_BATCH

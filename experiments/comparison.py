@@ -45,7 +45,7 @@ import numpy as np
 
 import mitsonar
 from mitsonar.sensors.baselines import DepthCamera, Lidar, map_trajectory
-from mitsonar.data.io import write_ply, write_table
+from mitsonar.io import write_ply, write_table
 from mitsonar.recon.repeated import RepeatedMapSpec, map_repeated
 from mitsonar.evaluation.metrics import (DEFAULT_THRESHOLD, Evaluation, evaluate, sample_surface,
                               save_error_figure, visible_from)

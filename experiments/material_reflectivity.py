@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 
 import mitsonar
-from mitsonar.data.io import atomic_path, write_table
+from mitsonar.io import atomic_path, write_table
 from mitsonar.physics.materials import preset
 from mitsonar.plots import _pyplot, save_png
 

@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 
 import mitsonar
-from mitsonar.data.io import write_table
+from mitsonar.io import write_table
 from mitsonar.recon.repeated import REGISTRATIONS, RepeatedMapSpec, build_voxel_map, scan_repeated
 from mitsonar.plots import _pyplot, save_png
 from mitsonar.recon.voxelmap import VoxelMapSettings

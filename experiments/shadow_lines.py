@@ -44,7 +44,7 @@ import numpy as np
 
 import mitsonar
 from mitsonar.physics.beampattern import in_fov
-from mitsonar.data.io import write_table
+from mitsonar.io import write_table
 from mitsonar.evaluation.metrics import evaluate, sample_surface, visible_from
 from mitsonar.plots import _pyplot, save_png
 from mitsonar.scene.mesh import scene_mesh

@@ -46,7 +46,7 @@ from scipy.spatial import cKDTree
 import mitsonar
 from mitsonar.sensors.baselines import DepthCamera, Lidar
 from mitsonar.frames import SENSOR_MOUNT_TRANSLATION, Pose
-from mitsonar.data.io import write_table
+from mitsonar.io import write_table
 from mitsonar.evaluation.metrics import DEFAULT_THRESHOLD, point_to_mesh, sample_surface, visible_from
 from mitsonar.plots import _pyplot, save_png
 from mitsonar.scene.mesh import scene_mesh

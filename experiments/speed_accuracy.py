@@ -21,7 +21,7 @@ import numpy as np
 
 import mitsonar
 from mitsonar.evaluation.fidelity import PRESETS, FidelityRun, ping_at
-from mitsonar.data.io import write_table
+from mitsonar.io import write_table
 from mitsonar.plots import _pyplot, save_png
 from mitsonar.scene.loading import load_scene
 from mitsonar.scene.mesh import scene_mesh

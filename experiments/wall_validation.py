@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 import mitsonar
-from mitsonar.data.io import atomic_path
+from mitsonar.io import atomic_path
 from mitsonar.plots import _pyplot
 from mitsonar.evaluation.reference import image_paths, plane_images
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from mitsonar.frames import fov_angles
-from mitsonar.data.io import atomic_path
+from mitsonar.io import atomic_path
 
 
 def _pyplot():

@@ -136,7 +136,7 @@ def test_shadow_lines_quick(tmp_path):
 
 def test_tables_keep_counts_exact(tmp_path):
     """Integers (point counts beyond 1e6) are written in full, floats to 6 significant digits."""
-    from mitsonar.data.io import write_table
+    from mitsonar.io import write_table
 
     write_table(tmp_path / "t.csv", [{"name": "a", "points": 3_042_690, "n": np.int64(1_387_758),
                                       "flag": True, "x": 1 / 3}], ["| md |"])

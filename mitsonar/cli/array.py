@@ -7,7 +7,7 @@ import time
 from pathlib import Path
 
 from mitsonar.cli.arguments import output_directory, output_file
-from mitsonar.data.io import write_json
+from mitsonar.io import write_json
 from mitsonar.design.evaluation import BeamCriteria, evaluate_layout, uniform_pair
 from mitsonar.design.figures import make_figures, metrics_rows
 from mitsonar.design.genetic import GASettings, design_arrays

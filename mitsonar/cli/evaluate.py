@@ -7,7 +7,7 @@ import sys
 from pathlib import Path
 
 from mitsonar.cli.arguments import output_directory
-from mitsonar.data.io import atomic_path, write_json
+from mitsonar.io import atomic_path, write_json
 from mitsonar.evaluation.metrics import DEFAULT_THRESHOLD, evaluate, read_points, save_error_figure
 from mitsonar.validation import check_positive
 

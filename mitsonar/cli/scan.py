@@ -40,7 +40,7 @@ def _run_scan(args) -> int:
 
     from mitsonar import Pose, Sonar, SonarConfig
     from mitsonar.frames import fov_angles
-    from mitsonar.data.io import write_json, write_npz, write_ply
+    from mitsonar.io import write_json, write_npz, write_ply
     from mitsonar.plots import save_scan_figure
 
     config = SonarConfig.from_toml(args.config) if args.config else SonarConfig.preset(args.preset)

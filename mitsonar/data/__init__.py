@@ -1,1 +1,1 @@
-"""Data on disk: paired camera + echo datasets and atomic file output."""
+"""Data on disk: paired camera + echo datasets (atomic writes: :mod:`mitsonar.io`)."""

@@ -38,7 +38,7 @@ from pathlib import Path
 import numpy as np
 
 from mitsonar.sensors.camera import CameraModel, CameraRenderer
-from mitsonar.data.io import atomic_path
+from mitsonar.io import atomic_path
 from mitsonar.sensors.sonar import Sonar, SonarConfig
 from mitsonar.sensors.trajectory import OdometryDrift, Trajectory, sensor_poses
 from mitsonar.validation import check_positive

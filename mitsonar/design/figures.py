@@ -27,7 +27,7 @@ from mitsonar.design.evaluation import BeamCriteria, evaluate_layout, uniform_pa
 from mitsonar.design.record import default_layout_path, load_layout_file
 from mitsonar.physics.beampattern import steered_patterns
 from mitsonar.frames import direction_from_fov_angles
-from mitsonar.data.io import atomic_path
+from mitsonar.io import atomic_path
 from mitsonar.plots import _pyplot, save_png
 
 #: Steering directions (horizontal, vertical) [rad] of the beam-pattern figures.

@@ -8,7 +8,7 @@ point-to-point distances. Here:
   threshold (the paper's "90 % of the points' distance error is less than 2 cm"), and the mean,
   median and 90th percentile distance.
 * Completeness is the fraction of ground-truth samples that have a reconstructed point within
-  the threshold. The samples are drawn uniformly by area at one per ``spacing``^2 (1 cm: one per
+  the threshold. The samples (:func:`~mitsonar.scene.mesh.sample_surface`) are drawn uniformly by area at one per ``spacing``^2 (1 cm: one per
   cm^2): each triangle gets floor(A/s^2 + u) samples (u uniform in [0, 1), so the expected count
   is exact) placed uniformly at random inside it. Stratifying by triangle keeps the count per
   surface nearly exact; the binomial error of a completeness measured over a surface of area A
@@ -30,52 +30,16 @@ from pathlib import Path
 
 import numpy as np
 
-from mitsonar.jit import rays
+from mitsonar.scene.rays import rays
 from mitsonar.plots import save_png
 from mitsonar.scene.loading import AcousticScene
-from mitsonar.scene.mesh import SceneMesh
+from mitsonar.scene.mesh import SceneMesh, SurfaceSamples, sample_surface
 from mitsonar.validation import check_finite, check_positive
 
 #: The paper's accuracy threshold [m].
 DEFAULT_THRESHOLD = 0.02
 #: Neighbours of a point are on the same surface when their triangle normals differ by less.
 SAME_SURFACE_ANGLE = np.radians(30.0)
-
-
-@dataclass(frozen=True)
-class SurfaceSamples:
-    """Points on the ground-truth surface.
-
-    Attributes:
-        points: (M, 3) positions [m], world frame.
-        triangle: (M,) index of the mesh triangle each sample lies on.
-    """
-
-    points: np.ndarray
-    triangle: np.ndarray
-
-    def subset(self, mask) -> "SurfaceSamples":
-        """The samples where the boolean ``mask`` (M,) is True."""
-        m = np.asarray(mask, dtype=bool)
-        if m.shape != (len(self.points),):
-            raise ValueError(f"observable mask must have shape ({len(self.points)},), got {m.shape}")
-        return SurfaceSamples(self.points[m], self.triangle[m])
-
-
-def sample_surface(mesh: SceneMesh, spacing: float = 0.01, seed: int = 0) -> SurfaceSamples:
-    """Uniform area-weighted samples, one per ``spacing``^2 [m] on average, stratified per
-    triangle (see the module docstring); the same seed gives the same samples."""
-    check_positive("sample spacing [m]", spacing)
-    rng = np.random.default_rng(seed)
-    areas = mesh.triangle_areas()
-    counts = np.floor(areas / spacing**2 + rng.random(len(areas))).astype(np.int64)
-    tri = np.repeat(np.arange(len(areas)), counts)
-    r1, r2 = rng.random((2, len(tri)))
-    s = np.sqrt(r1)
-    v = mesh.vertices[mesh.triangles[tri]]
-    pts = ((1 - s)[:, None] * v[:, 0] + (s * (1 - r2))[:, None] * v[:, 1]
-           + (s * r2)[:, None] * v[:, 2])
-    return SurfaceSamples(pts, tri)
 
 
 def point_to_mesh(points, mesh: SceneMesh):

@@ -39,7 +39,7 @@ import numpy as np
 
 from mitsonar.sensors.camera import CameraModel
 from mitsonar.frames import Pose
-from mitsonar.data.io import write_ply
+from mitsonar.io import write_ply
 from mitsonar.plots import save_png
 from mitsonar.validation import check_finite, check_positive
 

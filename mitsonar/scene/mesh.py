@@ -7,6 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from mitsonar.scene.loading import AcousticScene, SceneError, mitsuba, optically_transparent
+from mitsonar.validation import check_positive
 
 
 @dataclass(frozen=True)
@@ -148,3 +149,40 @@ def _sphere(segments: int):
 
 
 _TESSELLATORS = {"Disk": _disk, "Cylinder": _cylinder, "Sphere": _sphere}
+
+
+@dataclass(frozen=True)
+class SurfaceSamples:
+    """Points on the ground-truth surface.
+
+    Attributes:
+        points: (M, 3) positions [m], world frame.
+        triangle: (M,) index of the mesh triangle each sample lies on.
+    """
+
+    points: np.ndarray
+    triangle: np.ndarray
+
+    def subset(self, mask) -> "SurfaceSamples":
+        """The samples where the boolean ``mask`` (M,) is True."""
+        m = np.asarray(mask, dtype=bool)
+        if m.shape != (len(self.points),):
+            raise ValueError(f"observable mask must have shape ({len(self.points)},), got {m.shape}")
+        return SurfaceSamples(self.points[m], self.triangle[m])
+
+
+def sample_surface(mesh: SceneMesh, spacing: float = 0.01, seed: int = 0) -> SurfaceSamples:
+    """Uniform area-weighted samples, one per ``spacing``^2 [m] on average: each triangle of area
+    A gets floor(A / spacing^2 + u) samples (u uniform in [0, 1)) placed uniformly at random
+    inside it, so the count per surface is nearly exact; the same seed gives the same samples."""
+    check_positive("sample spacing [m]", spacing)
+    rng = np.random.default_rng(seed)
+    areas = mesh.triangle_areas()
+    counts = np.floor(areas / spacing**2 + rng.random(len(areas))).astype(np.int64)
+    tri = np.repeat(np.arange(len(areas)), counts)
+    r1, r2 = rng.random((2, len(tri)))
+    s = np.sqrt(r1)
+    v = mesh.vertices[mesh.triangles[tri]]
+    pts = ((1 - s)[:, None] * v[:, 0] + (s * (1 - r2))[:, None] * v[:, 1]
+           + (s * r2)[:, None] * v[:, 2])
+    return SurfaceSamples(pts, tri)

@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from mitsonar.frames import SENSOR_MOUNT_TRANSLATION, Pose
-from mitsonar.jit import rays
+from mitsonar.scene.rays import rays
 from mitsonar.scene.loading import AcousticScene, load_scene, mitsuba, optically_transparent
 from mitsonar.validation import check_finite, check_positive, check_range
 

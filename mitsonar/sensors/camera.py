@@ -26,7 +26,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from mitsonar.frames import Pose
-from mitsonar.jit import rays
+from mitsonar.scene.rays import rays
 from mitsonar.scene.loading import AcousticScene, mitsuba
 from mitsonar.validation import check_positive
 

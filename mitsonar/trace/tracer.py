@@ -46,7 +46,8 @@ from mitsonar.physics.array import APERTURE, ArrayGeometry
 from mitsonar.frames import Pose, orthonormal_basis
 from mitsonar.trace.element_factors import element_factors
 from mitsonar.trace.hitpaths import HitPaths
-from mitsonar.jit import rays, to_jit
+from mitsonar.jit import to_jit
+from mitsonar.scene.rays import rays
 from mitsonar.physics.medium import Medium
 from mitsonar.scene.loading import AcousticScene, mitsuba
 from mitsonar.physics.waveforms import Pulse

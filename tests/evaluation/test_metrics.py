@@ -8,7 +8,7 @@ import pytest
 
 import mitsonar
 from mitsonar.cli import main
-from mitsonar.data.io import write_ply
+from mitsonar.io import write_ply
 from mitsonar.evaluation.metrics import (Scores, error_jumps, evaluate, point_to_mesh, sample_surface,
                               visible_from)
 from helpers import SCENES

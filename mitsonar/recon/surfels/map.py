@@ -57,9 +57,8 @@ class SurfelMap:
 
     def sample(self, spacing: float = 0.01, seed: int = 0):
         """Points (M, 3) [m] sampled uniformly on the mesh, one per ``spacing``^2 (metrics'
-        :func:`~mitsonar.evaluation.metrics.sample_surface`), and their plane group (M,)."""
-        from mitsonar.evaluation.metrics import sample_surface
-        from mitsonar.scene.mesh import SceneMesh
+        :func:`~mitsonar.scene.mesh.sample_surface`), and their plane group (M,)."""
+        from mitsonar.scene.mesh import SceneMesh, sample_surface
 
         n = len(self.groups)
         mesh = SceneMesh(self.vertices, self.triangles, self.plane,

@@ -104,7 +104,7 @@ def save_surfel_figure(path, surfel_map: SurfelMap, points, plane, title: str = 
 def save_surfel_map(out_dir, surfel_map: SurfelMap, spacing: float = 0.01, title: str = ""):
     """Write ``surfel_map.ply`` (mesh coloured by plane), ``surfel_points.ply`` (``spacing`` [m]
     sampling), ``surfels.json`` and ``surfel_map.png`` into ``out_dir``; returns the samples."""
-    from mitsonar.data.io import write_json, write_ply
+    from mitsonar.io import write_json, write_ply
 
     out = Path(out_dir)
     colours = np.round(plane_colours(max(len(surfel_map.groups), 1)) * 255).astype(np.uint8)

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from mitsonar.data.io import atomic_path
+from mitsonar.io import atomic_path
 
 
 def rounded(v: float) -> float:
