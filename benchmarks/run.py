@@ -153,7 +153,7 @@ def main(argv=None) -> int:
     draft = mitsonar.Sonar(sonar.scene, fidelity("draft").apply(sonar.config))
     t_draft, _ = _timed(lambda: draft.scan(pose, dirs))
     print(f"{'  the draft preset (scan)':<34s} {len(dirs) / t_draft:12.4g} pings/s "
-          f"(as accurate against the ground truth on the shipped scenes: README)")
+          f"(as accurate against the ground truth on the shipped scenes: docs/performance.md)")
     print("  where the time goes (cProfile of the scan, inclusive times per beam):")
     profiled = profile(lambda: sonar.scan(pose, dirs), len(dirs), len(dirs), "pings/s")
     # Full-rate reference: every element pair synthesised at 400 kHz; both without noise, so that

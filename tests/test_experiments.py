@@ -23,7 +23,7 @@ def test_wall_validation_two_distances(tmp_path):
     run_experiment("wall_validation", "--distances", "0.5,2", "--out", str(tmp_path))
     rows = list(csv.DictReader((tmp_path / "wall_validation.csv").open()))
     assert [float(r["distance_m"]) for r in rows] == [0.5, 2.0]
-    for r in rows:  # the README's bounds: 5 mm and 1 dB (measured < 0.4 mm, < 0.02 dB)
+    for r in rows:  # docs/validation.md's bounds: 5 mm and 1 dB (measured < 0.4 mm, < 0.02 dB)
         assert abs(float(r["depth_error_mm"])) < 5 and abs(float(r["amplitude_vs_image_db"])) < 1
     assert (tmp_path / "wall_validation.png").stat().st_size > 10_000
 

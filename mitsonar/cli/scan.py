@@ -76,7 +76,7 @@ def _run_scan(args) -> int:
         "seconds": {"load": round(load_time, 3), "scan": round(scan_time, 3),
                     "per_beam": round(scan_time / max(len(dirs), 1), 4)},
         "files": {"points": "points.ply (world frame, detected beams, amplitude in Pa)",
-                  "echoes": "echoes.npz (see README: Echo file format)",
+                  "echoes": "echoes.npz (format: docs/datasets.md)",
                   "picture": "scan.png (depth and echo amplitude over the field of view)"},
     }
     write_json(out / "summary.json", summary)

@@ -181,7 +181,7 @@ def choose_fidelity(scene, poses, directions, config: SonarConfig | None = None,
     Not beam by beam: the diffuse echoes of different ray grids are different speckle
     realisations (the roughness phase is drawn per ray patch), which pick different reflectors
     within a beam; both are on the surfaces, so depths differ by centimetres beam by beam while
-    the accuracy is the same (README, Fidelity presets).
+    the accuracy is the same (docs/performance.md, fidelity presets).
 
     Args:
         scene: a loaded :class:`~mitsonar.scene.loading.AcousticScene`.

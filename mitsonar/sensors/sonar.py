@@ -206,7 +206,7 @@ class Scan:
     carrier: float = 0.0
 
     def arrays(self) -> dict:
-        """The scan as named arrays (the ``echoes.npz`` format of the README)."""
+        """The scan as named arrays (the ``echoes.npz`` format of docs/datasets.md)."""
         from mitsonar.frames import fov_angles
 
         h, v = fov_angles(self.directions)
