@@ -10,11 +10,11 @@ frame at each of these robot poses, in the same loaded scene. Every frame is pla
 pose (no odometry drift), so consistency reflects the sensors alone.
 
 Sonar settings: ``--preset`` (default 'paper', on which the surfel pipeline is tuned; see
-docs/reconstruction.md). Surfel mode uses 800 px images (at 400 px room_glass's planes grow wrongly: 1.4 %
-within 2 cm instead of 100 %). Repeated mode adds broadband transducers (20 kHz at -6 dB: the
-OFDM tones span 32-48 kHz), a 5 deg beam grid (the paper's 13 x 9 beams per frame) and 2 cm
-voxels; each beam is registered with its own pose (``RepeatedMapSpec`` default; the paper's one
-pose per frame smears what the robot passes while it drives or turns).
+docs/reconstruction.md). Surfel mode uses 800 px images (at 400 px room_glass's planes grow
+wrongly: 1.4 % within 2 cm instead of 100 %). Repeated mode adds broadband transducers (20 kHz
+at -6 dB: the OFDM tones span 32-48 kHz), a 5 deg beam grid (the paper's 13 x 9 beams per frame)
+and 2 cm voxels; each beam is registered with its own pose (``RepeatedMapSpec`` default; the
+paper's one pose per frame smears what the robot passes while it drives or turns).
 
 Scoring (:func:`mitsonar.evaluation.metrics.evaluate`, 2 cm threshold). Every cloud is first thinned to one
 point per 1 cm voxel, the ground truth's resolution (the paper samples its surfel map at 1 cm;
