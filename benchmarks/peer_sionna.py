@@ -10,7 +10,10 @@ once from each array centre with its synthetic array (``synthetic_array=True``: 
 phases applied to the centre's paths) and once from each of the 25 elements (exact). The figure
 is element-pair path coefficients (complex gain and delay of one path between one transmit and
 one receive element) per second; mitsonar's is the same count for its trace and narrow-band
-merge of a batch of beams (H hits x 25 x 25 pairs per beam).
+merge of a batch of beams (H hits x 25 x 25 pairs per beam, each beam a 20 deg cone). The jobs
+differ in what they keep: Sionna stores every element pair's coefficient, mitsonar's merge kernel
+forms each pair's gain and delay and sums them over the transmit elements at once (H x 25 merged
+paths out), which is what its synthesis needs.
 
 The scene is the scene file itself (:func:`radio_scene_xml`): every acoustic preset becomes the
 ITU radio material of :data:`ITU_TYPE` with the preset's diffuse energy fraction s as Sionna's
@@ -182,8 +185,8 @@ def peer_lines(scene_path: str, sonar, pose, directions, quick: bool) -> list:
     if out.returncode:
         raise RuntimeError(f"the Sionna RT peer failed:\n{out.stderr[-3000:]}")
     peer = json.loads(out.stdout.strip().splitlines()[-1])
-    left = f"; {peer['left_out']} non-mesh shapes left out" if peer["left_out"] else ""
-    print(f"peer: Sionna RT {version} in the same scene{left}: {len(job['tx'])} x "
+    left = f" ({peer['left_out']} non-mesh shapes left out)" if peer["left_out"] else ""
+    print(f"peer: Sionna RT {version}, the same scene{left}, {len(job['tx'])} x "
           f"{len(job['rx'])} element pairs, 1 bounce, specular + diffuse, "
           f"{peer['frequency'] / 1e9:.2f} GHz (wavelength {job['wavelength'] * 1e3:.2f} mm), "
           f"{peer['rays']} rays per source; warm times, first call in brackets")
