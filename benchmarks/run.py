@@ -199,6 +199,10 @@ def main(argv=None) -> int:
           f"{abs(depth_fast - depth_slow) * 1000:.4f} mm")
     lines.append(("synthesis error", error, error))
 
+    from peer_sionna import peer_lines  # benchmarks/peer_sionna.py, beside this script
+
+    lines += peer_lines(args.scene, sonar, pose, dirs[middle:middle + TRACE_BATCH], args.quick)
+
     for probe in ("ping", "frame", "sample"):
         peak = _probe_peak(args.scene, probe)
         print(f"{'peak memory, one ' + probe:<34s} {peak / 2**20:12.1f} MiB (fresh process)")

@@ -1,20 +1,22 @@
-"""The benchmark's profile: its stages are disjoint and account for the whole run."""
+"""The benchmark's profile: its stages are disjoint and account for the whole run; the scene
+of its Sionna RT peer line."""
 
 import importlib.util
 import sys
+import xml.etree.ElementTree as ET
 
 import numpy as np
 
 import mitsonar
 from helpers import ROOT, SCENES
 
-RUN = ROOT / "benchmarks" / "run.py"
 
-
-def load_benchmark():
-    spec = importlib.util.spec_from_file_location("benchmark_run", RUN)
+def load_benchmark(name: str = "run"):
+    """The module benchmarks/<name>.py."""
+    spec = importlib.util.spec_from_file_location(f"benchmark_{name}",
+                                                  ROOT / "benchmarks" / f"{name}.py")
     module = importlib.util.module_from_spec(spec)
-    sys.modules["benchmark_run"] = module
+    sys.modules[f"benchmark_{name}"] = module
     spec.loader.exec_module(module)
     return module
 
@@ -33,3 +35,18 @@ def test_profile_stages_are_disjoint(capsys):
     assert np.all(np.isfinite(seconds)) and np.all(seconds[:-1] > 0)
     assert seconds[-1] >= -0.01 * seconds.sum()
     assert len(capsys.readouterr().out.splitlines()) == len(rows)
+
+
+def test_peer_scene_is_the_scene_file():
+    """Sionna RT's scene (no Sionna needed): every shape of room_glass with an ITU radio material
+    per acoustic preset; the office's disks, cylinders and spheres (not meshes) left out."""
+    peer = load_benchmark("peer_sionna")
+    xml, left_out = peer.radio_scene_xml(str(SCENES / "room_glass" / "scene.xml"))
+    root = ET.fromstring(xml)
+    assert left_out == 0 and len(root.findall("shape")) == 30
+    assert {b.get("type") for b in root.iter("bsdf")} == {"itu-radio-material"}
+    types = {b.find("string[@name='type']").get("value") for b in root.iter("bsdf")}
+    assert types == {"plasterboard", "concrete", "glass"}
+    _, left_out = peer.radio_scene_xml(str(SCENES / "office" / "scene.xml"))
+    office = ET.parse(SCENES / "office" / "scene.xml").getroot().findall("shape")
+    assert left_out == sum(s.get("type") in ("disk", "cylinder", "sphere") for s in office) > 0
