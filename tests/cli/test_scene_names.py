@@ -66,6 +66,8 @@ def test_installed_wheel_runs_shipped_scenes_by_name_from_anywhere(tmp_path):
     env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "VIRTUAL_ENV")}
     mitsonar = str(venv / "bin" / "mitsonar")
     listed = subprocess.run([mitsonar, "scenes"], cwd=work, env=env, **run).stdout
+    subprocess.run([str(python), "-c", "from mitsonar.data.ros_schemas import definition; "
+                    "definition('mitsonar_msgs/SonarEchoes')"], cwd=work, env=env, **run)
     assert all(name in listed for name in SHIPPED) and str(ROOT) not in listed
     scan = subprocess.run([mitsonar, "scan", "room_glass", "--step", "20", "--fov", "20x10",
                            "--out", "scan"], cwd=work, env=env, **run)
