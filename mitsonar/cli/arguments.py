@@ -113,6 +113,14 @@ def add_preset_argument(parser) -> None:
                              "(default: default)")
 
 
+def add_record_argument(parser) -> None:
+    """The ``--record FILE.mcap`` option of the map commands."""
+    parser.add_argument("--record", type=output_file, default=None, metavar="FILE.mcap",
+                        help="also record the run as MCAP with ROS 2 messages: images, "
+                             "detections, frames, odometry and the map, for Foxglove and ROS 2 "
+                             "tools (docs/mcap.md) (default: no recording)")
+
+
 def add_trajectory_argument(parser) -> None:
     """The ``--trajectory PATH.json`` option of commands that move along a scene's trajectory."""
     parser.add_argument("--trajectory", type=Path, default=None,
