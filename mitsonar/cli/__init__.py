@@ -14,7 +14,8 @@ from mitsonar.cli.arguments import Parser
 
 #: Command groups, in the order ``mitsonar --help`` lists them.
 COMMAND_MODULES: list[str] = ["mitsonar.cli.scan", "mitsonar.cli.map", "mitsonar.cli.dataset",
-                              "mitsonar.cli.evaluate", "mitsonar.cli.array"]
+                              "mitsonar.cli.evaluate", "mitsonar.cli.array",
+                              "mitsonar.cli.scenes"]
 
 
 def build_parser() -> argparse.ArgumentParser:

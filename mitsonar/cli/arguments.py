@@ -10,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
+from mitsonar.scene.catalog import resolve_scene
 from mitsonar.sensors.trajectory import Trajectory
 
 #: A value that starts like a negative number ('-1.8,0,0', '-.5'), not like an option.
@@ -91,10 +92,17 @@ def parse_fov(text: str) -> tuple[float, float]:
     return np.radians(h), np.radians(v)
 
 
+def scene_path(text: str) -> Path:
+    """argparse type of a scene: a scene file, or the name of a shipped scene (``mitsonar
+    scenes``) -> its file (:func:`~mitsonar.scene.catalog.resolve_scene`)."""
+    return resolve_scene(text)
+
+
 def add_scene_argument(parser) -> None:
     """The positional ``scene``: the Mitsuba XML scene the command works in."""
-    parser.add_argument("scene", type=Path,
-                        help="Mitsuba XML scene file with acoustic materials (metres, z up)")
+    parser.add_argument("scene", type=scene_path,
+                        help="Mitsuba XML scene file with acoustic materials (metres, z up), or "
+                             "the name of a shipped scene ('mitsonar scenes' lists them)")
 
 
 def add_preset_argument(parser) -> None:
@@ -103,6 +111,14 @@ def add_preset_argument(parser) -> None:
                         help="sonar model: 'default' (the physical model) or 'paper' (the "
                              "paper's: point reflectors, ideal transducers, 340 m/s) "
                              "(default: default)")
+
+
+def add_record_argument(parser) -> None:
+    """The ``--record FILE.mcap`` option of the map commands."""
+    parser.add_argument("--record", type=output_file, default=None, metavar="FILE.mcap",
+                        help="also record the run as MCAP with ROS 2 messages: images, "
+                             "detections, frames, odometry and the map, for Foxglove and ROS 2 "
+                             "tools (docs/mcap.md) (default: no recording)")
 
 
 def add_trajectory_argument(parser) -> None:

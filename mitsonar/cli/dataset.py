@@ -1,4 +1,4 @@
-"""``mitsonar dataset render|info``: paired camera + echo datasets."""
+"""``mitsonar dataset render|info|export``: paired camera + echo datasets."""
 
 from __future__ import annotations
 
@@ -6,12 +6,13 @@ from pathlib import Path
 
 import numpy as np
 
-from mitsonar.cli.arguments import add_preset_argument, add_scene_argument, output_directory
+from mitsonar.cli.arguments import (add_preset_argument, add_scene_argument, output_directory,
+                                    output_file)
 from mitsonar.data.dataset import DatasetSpec, open_dataset, render_dataset
 
 
 def add_cli(subparsers) -> None:
-    """``mitsonar dataset render|info``."""
+    """``mitsonar dataset render|info|export``."""
     ds = subparsers.add_parser("dataset", help="paired camera + echo datasets along trajectories")
     sub = ds.add_subparsers(dest="dataset_command", required=True, metavar="COMMAND",
                            help="what to run ('mitsonar dataset COMMAND --help' lists its options)")
@@ -41,6 +42,15 @@ def add_cli(subparsers) -> None:
     i = sub.add_parser("info", help="summarise a dataset and check every file")
     i.add_argument("path", type=Path, help="dataset directory (as written by dataset render)")
     i.set_defaults(func=_run_info)
+    x = sub.add_parser("export", help="write a dataset as MCAP with ROS 2 messages (Foxglove)",
+                       description="Write every sample's camera image, depth, calibration, "
+                                   "sonar detections, per-channel echoes, frames, odometry and "
+                                   "ground truth as one MCAP file (docs/mcap.md). Every file is "
+                                   "verified first; a bad one is named and nothing is written.")
+    x.add_argument("path", type=Path, help="dataset directory (as written by dataset render)")
+    x.add_argument("--out", type=output_file, required=True, metavar="FILE.mcap",
+                   help="MCAP file to write (replaced if it exists)")
+    x.set_defaults(func=_run_export)
 
 
 def _run_render(args) -> int:
@@ -70,4 +80,19 @@ def _run_info(args) -> int:
     spec = ds.meta["spec"]
     print(f"{args.path}: {len(ds)} samples of {spec['scene']}, every {spec['period']} s; "
           f"all files verified.")
+    return 0
+
+
+def _run_export(args) -> int:
+    import sys
+
+    from tqdm import tqdm
+
+    from mitsonar.data.dataset_mcap import export_dataset
+    from mitsonar.data.mcap_recorder import describe
+
+    with tqdm(total=len(open_dataset(args.path)), desc="samples", unit="sample",
+              file=sys.stderr, leave=False) as bar:
+        counts = export_dataset(args.path, args.out, progress=lambda _: bar.update())
+    print(f"Wrote {describe(args.out, counts)}.")
     return 0

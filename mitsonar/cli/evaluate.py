@@ -6,7 +6,7 @@ import csv
 import sys
 from pathlib import Path
 
-from mitsonar.cli.arguments import output_directory
+from mitsonar.cli.arguments import output_directory, scene_path
 from mitsonar.io import atomic_path, write_json
 from mitsonar.evaluation.metrics import DEFAULT_THRESHOLD, evaluate, read_points, save_error_figure
 from mitsonar.validation import check_positive
@@ -20,7 +20,8 @@ def add_cli(subparsers) -> None:
                     "against the scene's surfaces, overall, per optical class and per material. "
                     "Writes metrics.json, metrics.csv and errors.png.")
     e.add_argument("recon", type=Path, help="reconstructed point cloud (PLY, world frame, metres)")
-    e.add_argument("scene", type=Path, help="Mitsuba XML scene it was reconstructed from")
+    e.add_argument("scene", type=scene_path,
+                   help="Mitsuba XML scene it was reconstructed from, or a shipped scene's name")
     e.add_argument("--threshold", type=float, default=DEFAULT_THRESHOLD,
                    help="distance within which a point is accurate and a ground-truth sample "
                         f"is covered [m] (default {DEFAULT_THRESHOLD:g})")

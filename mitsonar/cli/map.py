@@ -6,9 +6,9 @@ import sys
 
 import numpy as np
 
-from mitsonar.cli.arguments import (add_preset_argument, add_scene_argument,
-                                    add_trajectory_argument, output_directory,
-                                    trajectory_from_args)
+from mitsonar.cli.arguments import (add_preset_argument, add_record_argument,
+                                    add_scene_argument, add_trajectory_argument,
+                                    output_directory, trajectory_from_args)
 from mitsonar.recon.repeated import REGISTRATIONS, RepeatedMapSpec, map_repeated
 from mitsonar.recon.surfels import SurfelSettings, map_surfels, save_surfel_map, summary
 from mitsonar.recon.voxelmap import VoxelMapSettings, save_voxel_figure, save_voxel_ply
@@ -43,6 +43,7 @@ def add_cli(subparsers) -> None:
                         "pose per frame ('frame', the paper's) (default: beam)")
     r.add_argument("--seed", type=int, default=0,
                    help="seed of the noise and the diffuse phases (default 0)")
+    add_record_argument(r)
     r.set_defaults(func=_run_repeated)
     _add_surfel(sub)
 
@@ -72,6 +73,12 @@ def _run_repeated(args) -> int:
     detected = sum(int(s.frame.detected.sum()) for s in frames)
     print(f"{detected} points from {spec.frames} frames -> {len(voxels)} voxels; wrote "
           f"{args.out}/voxel_map.ply and voxel_map.png (top, side and 3-D views).")
+    if args.record is not None:
+        from mitsonar.data.map_mcap import record_repeated
+        from mitsonar.data.mcap_recorder import describe
+
+        counts = record_repeated(args.record, frames, voxels, trajectory, seed=args.seed)
+        print(f"Recorded {describe(args.record, counts)}.")
     return 0
 
 
@@ -94,6 +101,7 @@ def _add_surfel(map_subparsers) -> None:
     add_preset_argument(s)
     s.add_argument("--seed", type=int, default=0,
                    help="seed of the camera images and the pings (default 0)")
+    add_record_argument(s)
     s.set_defaults(func=_run_surfel)
 
 
@@ -109,16 +117,23 @@ def _run_surfel(args) -> int:
     if args.frames < 1:
         raise ValueError(f"--frames must be >= 1, got {args.frames}")
     trajectory = trajectory_from_args(args)
-    poses = sensor_poses(trajectory.poses_at(np.linspace(0.0, trajectory.duration, args.frames)))
+    times = np.linspace(0.0, trajectory.duration, args.frames)
+    poses = sensor_poses(trajectory.poses_at(times))
     settings = SurfelSettings(image_width=args.width, spp=args.spp, seed=args.seed)
     sonar = Sonar(args.scene, SonarConfig.preset(args.preset))
+    recording = None
+    if args.record is not None:
+        from mitsonar.data.map_mcap import SurfelRunRecording
+
+        recording = SurfelRunRecording(sonar, trajectory, times, poses, seed=args.seed)
     start = time.perf_counter()
     passes = 1 if settings.check_spacing == 0 else 2
     with tqdm(total=passes * len(poses), desc="poses (scan, check)", unit="pose",
               file=sys.stderr) as bar:
-        surfel_map = map_surfels(sonar, poses, settings=settings, progress=lambda _: bar.update())
-    points, _ = save_surfel_map(args.out, surfel_map,
-                                title=f"{args.scene.parent.name}: {len(poses)} poses")
+        surfel_map = map_surfels(sonar if recording is None else recording.sonar, poses,
+                                 settings=settings, progress=lambda _: bar.update())
+    points, plane = save_surfel_map(args.out, surfel_map,
+                                    title=f"{args.scene.parent.name}: {len(poses)} poses")
     info = summary(surfel_map)
     score = evaluate(points, scene_mesh(sonar.scene)).overall if len(points) else None
     print(f"{info['registered_surfels']} of {info['candidate_surfels']} surfels registered "
@@ -131,4 +146,9 @@ def _run_surfel(args) -> int:
               f"({1e-4 * len(points):.1f} m^2) within 2 cm of the ground truth (median "
               f"{100 * score.median_distance:.1f} cm); they cover {100 * score.completeness:.1f} % "
               f"of the scene's surface")
+    if recording is not None:
+        from mitsonar.data.mcap_recorder import describe
+
+        counts = recording.save(args.record, surfel_map, points, plane)
+        print(f"Recorded {describe(args.record, counts)}.")
     return 0

@@ -37,7 +37,7 @@ from pathlib import Path
 
 import numpy as np
 
-from mitsonar.sensors.camera import CameraModel, CameraRenderer
+from mitsonar.sensors.camera import CameraModel, CameraRenderer, srgb8
 from mitsonar.io import atomic_path
 from mitsonar.sensors.sonar import Sonar, SonarConfig
 from mitsonar.sensors.trajectory import OdometryDrift, Trajectory, sensor_poses
@@ -176,8 +176,7 @@ class _Renderer:
 def _write_png(path: Path, linear) -> None:
     import cv2
 
-    srgb = np.where(linear <= 0.0031308, 12.92 * linear, 1.055 * np.power(np.maximum(linear, 0), 1 / 2.4) - 0.055)
-    img = np.clip(np.round(srgb * 255), 0, 255).astype(np.uint8)
+    img = srgb8(linear)
     cv2.imwrite(str(path), img[..., ::-1] if img.ndim == 3 else img)
 
 

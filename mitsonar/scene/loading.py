@@ -11,6 +11,7 @@ import numpy as np
 
 from mitsonar._native import configure_llvm
 from mitsonar.physics.materials import DEFAULT_MATERIAL_NAME, AcousticMaterial, preset
+from mitsonar.scene.catalog import resolve_scene, shipped_scenes
 
 #: Mitsuba variant used everywhere: Dr.Jit's LLVM backend (CPU), RGB for the camera.
 VARIANT = "llvm_ad_rgb"
@@ -78,15 +79,17 @@ class AcousticScene:
 
 
 def load_scene(path, default_material: AcousticMaterial | None = None) -> AcousticScene:
-    """Load a Mitsuba XML scene whose BSDFs may be ``<bsdf type="acoustic">``.
+    """Load a Mitsuba XML scene whose BSDFs may be ``<bsdf type="acoustic">``; ``path`` may
+    also name a shipped scene (:func:`~mitsonar.scene.catalog.resolve_scene`).
 
     Shapes without acoustic properties get ``default_material`` (the ``drywall`` preset unless
     given) and one :class:`DefaultMaterialWarning` names them all. Raises :class:`SceneError`
     naming the file for a missing or malformed file and for invalid acoustic properties.
     """
-    path = Path(path)
+    path = resolve_scene(path)
     if not path.is_file():
-        raise SceneError(f"{path}: scene file not found")
+        raise SceneError(f"{path}: scene file not found (shipped scenes: "
+                         f"{', '.join(shipped_scenes())})")
     mi = mitsuba()
     import drjit as dr
     from mitsonar.plugins.acoustic import AcousticBSDF

@@ -127,6 +127,14 @@ class CameraModel:
         return d / np.linalg.norm(d, axis=-1, keepdims=True)
 
 
+def srgb8(linear) -> np.ndarray:
+    """8-bit sRGB (uint8, same shape) of linear values in [0, 1] (clipped): the images' PNG
+    previews and recordings."""
+    srgb = np.where(linear <= 0.0031308, 12.92 * linear,
+                    1.055 * np.power(np.maximum(linear, 0), 1 / 2.4) - 0.055)
+    return np.clip(np.round(srgb * 255), 0, 255).astype(np.uint8)
+
+
 def denoise(rgb, albedo, normal) -> np.ndarray:
     """OIDN-denoised (H, W, 3) float32 linear radiance from the Monte Carlo estimate ``rgb``,
     guided by the albedo (H, W, 3) in [0, 1] and shading normals (H, W, 3) in [-1, 1] averaged

@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from mitsonar.frames import Pose
+from mitsonar.scene.catalog import resolve_scene
 from mitsonar.validation import check_finite, check_positive
 
 
@@ -49,8 +50,9 @@ class Trajectory:
 
     @classmethod
     def from_scene(cls, scene_path) -> "Trajectory":
-        """The default trajectory in the ``ground_truth.json`` beside a shipped scene."""
-        return cls.from_file(Path(scene_path).with_name("ground_truth.json"))
+        """The default trajectory in the ``ground_truth.json`` beside a shipped scene (its path
+        or name)."""
+        return cls.from_file(resolve_scene(scene_path).with_name("ground_truth.json"))
 
     @classmethod
     def from_file(cls, path) -> "Trajectory":
