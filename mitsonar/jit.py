@@ -1,5 +1,14 @@
-"""Moving arrays from NumPy to Dr.Jit's LLVM backend without recompiling kernels.
+"""Dr.Jit's backend: the Mitsuba variant mitsonar runs on, and moving arrays from NumPy to it
+without recompiling kernels.
 
+Variant. Every scene, ray cast and kernel runs on one Mitsuba variant per process, the setting
+``MITSONAR_VARIANT`` (environment; default ``llvm_ad_rgb``: Dr.Jit's LLVM backend on the CPU,
+RGB for the camera) or :func:`set_variant` before the first scene is loaded. ``cuda_ad_rgb``
+selects Dr.Jit's CUDA backend where the Mitsuba build and an NVIDIA GPU provide it; mitsonar's
+kernels take their array types from :func:`backend`. (The CUDA variant has not been run on a GPU
+by mitsonar's tests: the CI machines have none.)
+
+Alignment.
 Dr.Jit's LLVM backend specialises a kernel on the memory alignment of its input buffers. NumPy
 arrays come at whatever alignment the allocator gave them, so a kernel fed straight from NumPy
 is compiled anew for many combinations of its inputs' alignments (up to 2^inputs variants, up to
@@ -9,14 +18,64 @@ compiles once and is then reused (and loaded from Dr.Jit's disk cache in later r
 
 from __future__ import annotations
 
+import os
+
 import numpy as np
+
+#: Variants mitsonar runs on: RGB (the camera) on Dr.Jit's LLVM (CPU) or CUDA (GPU) backend.
+VARIANTS = ("llvm_ad_rgb", "cuda_ad_rgb")
+#: Environment variable that chooses the variant.
+VARIANT_ENV = "MITSONAR_VARIANT"
+
+_variant: str | None = None
+
+
+def _checked(name: str, source: str) -> str:
+    if name not in VARIANTS:
+        raise ValueError(f"{source}: unknown Mitsuba variant {name!r}; mitsonar runs on "
+                         f"{', '.join(VARIANTS)}")
+    return name
+
+
+def variant() -> str:
+    """The Mitsuba variant of this process: :func:`set_variant`'s, else ``MITSONAR_VARIANT``'s,
+    else ``llvm_ad_rgb``."""
+    global _variant
+    if _variant is None:
+        _variant = _checked(os.environ.get(VARIANT_ENV, VARIANTS[0]), VARIANT_ENV)
+    return _variant
+
+
+def set_variant(name: str) -> None:
+    """Run on Mitsuba variant ``name`` (one of :data:`VARIANTS`); call before the first scene is
+    loaded (Mitsuba's plugins and mitsonar's kernels are built for one variant per process)."""
+    global _variant
+    import sys
+
+    name = _checked(name, "set_variant")
+    mi = sys.modules.get("mitsuba")
+    active = mi.variant() if mi is not None else None
+    if active is not None and active != name:
+        raise ValueError(f"set_variant({name!r}): Mitsuba already runs {active!r} in this "
+                         "process; choose the variant before loading a scene")
+    _variant = name
+
+
+def backend():
+    """The Dr.Jit array namespace of the variant's backend (``drjit.llvm`` or ``drjit.cuda``),
+    from which kernels take their array types (``backend().Float32``)."""
+    if variant().startswith("cuda"):
+        import drjit.cuda as namespace
+    else:
+        import drjit.llvm as namespace
+    return namespace
 
 #: Alignment of the buffers handed to Dr.Jit [bytes] (a cache line; covers AVX-512 loads).
 ALIGNMENT = 64
 
 
 def to_jit(array_type, values):
-    """A flat Dr.Jit LLVM array of ``array_type`` (e.g. ``drjit.llvm.Float``) holding ``values``
+    """A flat Dr.Jit array of ``array_type`` (e.g. ``backend().Float``) holding ``values``
     (any shape, flattened, converted to the type's precision), from an ``ALIGNMENT``-byte
     aligned copy."""
     import drjit as dr

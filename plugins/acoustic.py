@@ -20,10 +20,10 @@ from __future__ import annotations
 import mitsuba as mi
 
 from mitsonar.physics.materials import AcousticMaterial, preset
-from mitsonar.scene.loading import VARIANT
+from mitsonar.jit import variant
 
 if mi.variant() is None:  # the class below derives from a variant-specific mi.BSDF
-    mi.set_variant(VARIANT)
+    mi.set_variant(variant())
 
 PLUGIN_NAME = "acoustic"
 _KNOWN = {"preset", "impedance", "absorption", "scattering"}

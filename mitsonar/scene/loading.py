@@ -10,12 +10,9 @@ from pathlib import Path
 import numpy as np
 
 from mitsonar._native import configure_llvm
+from mitsonar.jit import variant
 from mitsonar.physics.materials import DEFAULT_MATERIAL_NAME, AcousticMaterial, preset
 from mitsonar.scene.catalog import resolve_scene, shipped_scenes
-
-#: Mitsuba variant used everywhere: Dr.Jit's LLVM backend (CPU), RGB for the camera.
-VARIANT = "llvm_ad_rgb"
-
 
 class SceneError(ValueError):
     """A scene file could not be loaded; the message names the file and the cause."""
@@ -29,13 +26,17 @@ _registered = False
 
 
 def mitsuba():
-    """Import Mitsuba with a working LLVM, set mitsonar's variant, register the plugins."""
+    """Import Mitsuba with a working LLVM, set mitsonar's variant (:func:`mitsonar.jit.variant`),
+    register the plugins."""
     global _registered
     configure_llvm()
     import mitsuba as mi
 
-    if mi.variant() != VARIANT:
-        mi.set_variant(VARIANT)
+    if mi.variant() != variant():
+        try:
+            mi.set_variant(variant())
+        except (ImportError, AttributeError) as err:
+            raise ValueError(f"Mitsuba variant {variant()!r} is not available here: {err}") from None
     if not _registered:
         from mitsonar.plugins import acoustic
 

@@ -28,7 +28,7 @@ from functools import cache
 import numpy as np
 import scipy.fft as sfft
 
-from mitsonar.jit import to_jit
+from mitsonar.jit import backend, to_jit
 from mitsonar.signal.band import Band, Recording
 from mitsonar.trace.paths import Paths
 
@@ -46,7 +46,7 @@ def _spread_kernel():
     recorded size.)
     """
     import drjit as dr
-    from drjit.llvm import Float64, Int64, UInt32
+    Float64, Int64, UInt32 = backend().Float64, backend().Int64, backend().UInt32
 
     def spread(size, pos, row, gain, first_order, shift, n_grid, half_width, inv_var, rate_inv_var):
         acc = (dr.zeros(Int64, size), dr.zeros(Int64, size))
@@ -149,7 +149,7 @@ class EchoSynthesizer:
         sample, is far below the band floor; its FFTs take half the time).
         """
         import drjit as dr
-        from drjit.llvm import Float64, Int64
+        Float64, Int64 = backend().Float64, backend().Int64
 
         band = self.band
         fs, n_grid = band.sample_rate, band.n_grid

@@ -17,7 +17,7 @@ from math import factorial
 
 import numpy as np
 
-from mitsonar.jit import to_jit
+from mitsonar.jit import backend, to_jit
 
 
 @dataclass(frozen=True)
@@ -62,7 +62,7 @@ def directivity_series(ka: float, tolerance: float = 1e-15) -> tuple[float, ...]
 def _kernel():
     """The frozen kernel of :func:`element_factors`."""
     import drjit as dr
-    from drjit.llvm import Float64, UInt32
+    Float64, UInt32 = backend().Float64, backend().UInt32
 
     def factors(hits, elements, phase, firing, visible, mirror, impedance, n_elements,
                 series, ka, log_attenuation, inv_c, z_air):
@@ -135,7 +135,7 @@ def element_factors(points, normals, edges, elements, element_gain, ka: float,
             reflection coefficient is applied), or None.
         z_air: impedance of air [Pa s/m] (with ``impedance``).
     """
-    from drjit.llvm import Float64
+    Float64 = backend().Float64
 
     points = np.asarray(points, dtype=float)
     n_hits, n_elements = len(points), len(elements)

@@ -20,7 +20,7 @@ from functools import cache, cached_property
 import drjit as dr
 import numpy as np
 
-from mitsonar.jit import to_jit
+from mitsonar.jit import backend, to_jit
 from mitsonar.trace.paths import Paths
 
 
@@ -145,7 +145,7 @@ class HitPaths:
     def narrowband_many(self, frequencies) -> list[Paths]:
         """:meth:`narrowband` about each of ``frequencies`` [Hz] (an OFDM code's tones), in one
         kernel: the element-pair gains are formed once for all of them."""
-        from drjit.llvm import Float32, UInt32
+        Float32, UInt32 = backend().Float32, backend().UInt32
 
         n_tx, n_rx = self.elements
         n_hits = len(self.tx_delay)
@@ -197,7 +197,7 @@ def _merge_kernel():
     group g of receive elements per thread. Returns per receive element of the group a tuple:
     the mean delay offset [s], then (a_re, a_im, b_re, b_im) per tone, each (H x N_rx / g,).
     """
-    from drjit.llvm import Float32
+    Float32 = backend().Float32
 
     def merge(thread, tx, rx, omegas, n_tx, n_rx, group):
         tx_row = thread // (n_rx // group) * n_tx

@@ -46,7 +46,7 @@ from mitsonar.physics.array import APERTURE, ArrayGeometry
 from mitsonar.frames import Pose, orthonormal_basis
 from mitsonar.trace.element_factors import element_factors
 from mitsonar.trace.hitpaths import HitPaths
-from mitsonar.jit import to_jit
+from mitsonar.jit import backend, to_jit
 from mitsonar.scene.rays import rays
 from mitsonar.physics.medium import Medium
 from mitsonar.scene.loading import AcousticScene, mitsuba
@@ -278,7 +278,7 @@ class AcousticTracer:
         NumPy temporaries, which cost several times the tests themselves); one any-hit test per
         segment, and only the blocked ones, if the scene has acoustically transparent surfaces,
         traced again through them."""
-        from drjit.llvm import Float64, UInt32
+        Float64, UInt32 = backend().Float64, backend().UInt32
 
         mi = self.mi
         rx = self.geometry.rx_positions
