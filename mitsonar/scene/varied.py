@@ -25,6 +25,7 @@ footprint in ground_truth.json, the windows are listed under ``windows``. Write 
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -34,12 +35,13 @@ from mitsonar.scene.building.lights import ceiling_lights
 from mitsonar.scene.building.materials import PANEL_WHITE, Material
 from mitsonar.scene.building.shell import ThickWall, enclosure
 from mitsonar.scene.building.spec import SceneSpec
-from mitsonar.scene.varied_furniture import (DRAW, build, common_materials, draw_pieces, place,
-                                             plan_walls)
-from mitsonar.scene.varied_glass import PARTITION_BAND, draw_partition, draw_sun, draw_windows
+from mitsonar.scene.varied_furniture import DRAW, build, draw_pieces, place, plan_walls, shared
+from mitsonar.scene.varied_glass import (PARTITION_BAND, Window, draw_partition, draw_sun,
+                                         draw_windows)
 from mitsonar.scene.varied_looks import draw_lights, draw_surfaces
-from mitsonar.scene.varied_plan import (CLEARANCE, FreeFloor, draw_insets, draw_outline, exact, gap,
-                                        grid, loop_corners, loop_legs, loop_trajectory, moved)
+from mitsonar.scene.varied_plan import (CLEARANCE, FreeFloor, Outline, draw_insets, draw_outline,
+                                        exact, gap, grid, loop_corners, loop_legs, loop_trajectory,
+                                        moved)
 
 #: Draws of a whole room before giving up (a draw fails where no glass or no furniture fits).
 ATTEMPTS = 50
@@ -56,9 +58,9 @@ def varied_room(seed: int) -> SceneSpec:
     docstring for what is drawn)."""
     rng = np.random.default_rng(seed)
     for _ in range(ATTEMPTS):
-        spec = _draw(rng, int(seed))
-        if spec is not None:
-            return spec
+        plan = _plan(rng)
+        if plan is not None:
+            return _spec(rng, int(seed), plan)
     raise RuntimeError(f"varied_room({seed}): no room in {ATTEMPTS} draws")
 
 
@@ -69,11 +71,27 @@ def write_varied_rooms(out_dir, seeds) -> list[Path]:
             for s in seeds]
 
 
-def _draw(rng: np.random.Generator, seed: int) -> SceneSpec | None:
-    """One draw of the room, or None where it has no glass or no furniture."""
-    local = draw_outline(rng)
+@dataclass(frozen=True)
+class _Plan:
+    """A room planned with its walls on the grid (south-west corner at the origin): outline,
+    height [m], loop corners, the loop's start (the world origin once written), windows, the
+    partition (see :func:`~mitsonar.scene.varied_glass.draw_partition`) and the placed pieces
+    (see :func:`~mitsonar.scene.varied_furniture.place`)."""
+
+    outline: Outline
+    height: float
+    corners: list
+    start: tuple[float, float]
+    windows: list[Window]
+    partition: tuple | None
+    placed: list
+
+
+def _plan(rng: np.random.Generator) -> _Plan | None:
+    """One draw of the plan, or None where it has no glass or no furniture."""
+    outline = draw_outline(rng)
     height = grid(rng.uniform(2.4, 3.2))
-    area = sum((r[1] - r[0]) * (r[3] - r[2]) for _, r in local.rooms)
+    area = sum((r[1] - r[0]) * (r[3] - r[2]) for _, r in outline.rooms)
     pieces = draw_pieces(rng, area, height)
     if rng.random() < 0.5:
         pieces.append(DRAW["lamp"](rng, height))
@@ -83,16 +101,16 @@ def _draw(rng: np.random.Generator, seed: int) -> SceneSpec | None:
         want_partition = rng.random() < 0.6
         n_windows = 0 if want_partition else 1
     # half the partitions stand in front of a wall: keep a band for it there
-    partition_wall = int(rng.integers(len(local.walls))) if want_partition and \
+    partition_wall = int(rng.integers(len(outline.walls))) if want_partition and \
         rng.random() < 0.5 else None
     reserved = {} if partition_wall is None else {partition_wall: PARTITION_BAND}
-    insets, assigned = plan_walls(rng, local, draw_insets(rng, local), pieces, reserved)
-    corners = loop_corners(local, insets)
+    insets, assigned = plan_walls(rng, outline, draw_insets(rng, outline), pieces, reserved)
+    corners = loop_corners(outline, insets)
     (ax, ay), (bx, _) = corners[0], corners[1]
-    sx, sy = exact(ax + grid(rng.uniform(0.2, 0.6) * (bx - ax))), ay
-    floor = FreeFloor(local, loop_legs(corners))
-    floor.keep_clear.append((sx, local.outer[1], sy - 0.4, sy + 0.4))  # the view from the start
-
+    start = (exact(ax + grid(rng.uniform(0.2, 0.6) * (bx - ax))), ay)
+    floor = FreeFloor(outline, loop_legs(corners))
+    # the view from the start, straight ahead to the wall
+    floor.keep_clear.append((start[0], outline.outer[1], start[1] - 0.4, start[1] + 0.4))
     windows = draw_windows(rng, floor, height, n_windows, insets)
     partition = draw_partition(rng, floor, corners, height, insets, partition_wall) \
         if want_partition else None
@@ -102,9 +120,14 @@ def _draw(rng: np.random.Generator, seed: int) -> SceneSpec | None:
               if (at := place(rng, floor, piece, wall)) is not None]
     if not any(piece.kind != "lamp" for piece, _ in placed):
         return None
+    return _Plan(outline, height, corners, start, windows, partition, placed)
 
-    # planned with walls on the grid, written with the loop's start at the world origin
-    outline = local.shifted(-sx, -sy)
+
+def _spec(rng: np.random.Generator, seed: int, plan: _Plan) -> SceneSpec:
+    """The scene of ``plan``, moved so that the loop's start is the world origin, with its
+    looks drawn."""
+    dx, dy = -plan.start[0], -plan.start[1]
+    outline, height, windows = plan.outline.shifted(dx, dy), plan.height, plan.windows
     x0, x1, y0, y1 = outline.outer
     sun = draw_sun(rng, windows) if windows and rng.random() < 0.7 else None
     spec = SceneSpec(f"varied_{seed}", "", height, sky=bool(windows), sun=sun,
@@ -112,13 +135,14 @@ def _draw(rng: np.random.Generator, seed: int) -> SceneSpec | None:
                                (0.5 * (x0 + x1), 0.5 * (y0 + y1), 0.5)))
     spec.rooms = [{"id": rid, "x": r[:2], "y": r[2:]} for rid, r in outline.rooms]
     surfaces = draw_surfaces(rng, spec, outline, {w.wall.side for w in windows})
-    lights = [(moved(r, -sx, -sy), radiance) for r, radiance in draw_lights(rng, local)]
-    glass = spec.material(Material("window_glass", "glass", optical="thindielectric", ior=1.5))
+    lights = [(moved(r, dx, dy), radiance) for r, radiance in draw_lights(rng, plan.outline)]
     openings: dict[str, list] = {}
     for w in windows:
+        glass = spec.material(Material("window_glass", "glass", optical="thindielectric",
+                                       ior=1.5))
         side = openings.setdefault(w.wall.side, [])
         side.append(w.opening(f"window_{w.wall.side}_{len(side) + 1}", glass,
-                              -sx if w.wall.axis == "x" else -sy))
+                              dx if w.wall.axis == "x" else dy))
     interior = [] if outline.block is None else [
         ThickWall("corner_block", "x", outline.block[:2], outline.block[2:])]
     enclosure(spec, outline.outer, surfaces.walls, surfaces.floor, surfaces.ceiling, openings,
@@ -126,28 +150,30 @@ def _draw(rng: np.random.Generator, seed: int) -> SceneSpec | None:
               window_reveal=WINDOW_REVEAL)
     panel = spec.material(Material("light_panel", "plaster", rgb=PANEL_WHITE))
     spec.add(*ceiling_lights(lights, height, panel))
-    if partition is not None:
-        rect, top = moved(partition[0], -sx, -sy), partition[1]
+    looks = []
+    if plan.partition is not None:
+        rect, top, look = plan.partition
+        rect = moved(rect, dx, dy)
         pane = spec.material(Material("partition_glass", "glass", optical="thindielectric",
                                       ior=1.5))
         spec.add(*glass_partition("partition", rect[:2], rect[2:], top, pane,
-                                  common_materials(spec)["bright"]))
+                                  shared(spec, "bright")))
+        looks += [] if look is None else [(exact(look[0] + dx), exact(look[1] + dy))]
     counts: dict[str, int] = {}
-    for piece, (rect, axis, back) in placed:
+    for piece, (rect, axis, back) in plan.placed:
         counts[piece.kind] = counts.get(piece.kind, 0) + 1
         gid = f"{piece.kind}_{counts[piece.kind]}"
-        spec.add(*build(spec, rng, gid, piece, moved(rect, -sx, -sy), axis, back))
-    corners = [(exact(x - sx), exact(y - sy)) for x, y in corners]
-    looks = [] if partition is None or partition[2] is None else [
-        (exact(partition[2][0] - sx), exact(partition[2][1] - sy))]
+        spec.add(*build(spec, rng, gid, piece, moved(rect, dx, dy), axis, back))
+    corners = [(exact(x + dx), exact(y + dy)) for x, y in plan.corners]
     spec.trajectory = loop_trajectory(corners, (0.0, 0.0), looks)
     spec.description = _description(seed, outline, height, surfaces.summary, len(lights),
-                                    windows, partition is not None, counts)
+                                    windows, plan.partition is not None, counts)
     _check_clearance(spec, loop_legs(corners))
     return spec
 
 
 def _description(seed, outline, height, looks, n_lights, windows, partition, counts) -> str:
+    """One line on the room for its scene.xml and ground_truth.json."""
     x0, x1, y0, y1 = outline.outer
     shape = ", L-shaped" if outline.block is not None else ""
     glass = [f"{len(windows)} window{'s' * (len(windows) != 1)}"] if windows else []

@@ -256,22 +256,25 @@ def build(spec: SceneSpec, rng: np.random.Generator, gid: str, piece: Piece, rec
     return _BUILD[piece.kind](spec, rng, gid, piece, rect, axis, back)
 
 
-def common_materials(spec: SceneSpec) -> dict[str, str]:
-    """Register the materials several pieces share; their ids by short name ('oak', 'walnut',
-    'steel', 'bright' steel, 'ceramic')."""
-    return {"oak": spec.material(Material("oak", "wood", texture="wood_oak.png")),
-            "walnut": spec.material(Material("walnut", "wood", texture="wood_walnut.png")),
-            "steel": spec.material(Material("steel_dark", "metal", rgb=(0.18, 0.18, 0.19))),
-            "bright": spec.material(Material("steel_bright", "metal", rgb=(0.55, 0.56, 0.58))),
-            "ceramic": spec.material(Material("ceramic_white", "concrete",
-                                              rgb=(0.85, 0.85, 0.83)))}
+#: Materials several pieces share, by short name.
+SHARED = {"oak": Material("oak", "wood", texture="wood_oak.png"),
+          "walnut": Material("walnut", "wood", texture="wood_walnut.png"),
+          "steel": Material("steel_dark", "metal", rgb=(0.18, 0.18, 0.19)),
+          "bright": Material("steel_bright", "metal", rgb=(0.55, 0.56, 0.58)),
+          "ceramic": Material("ceramic_white", "concrete", rgb=(0.85, 0.85, 0.83)),
+          "cardboard": Material("cardboard", "wood", rgb=(0.45, 0.29, 0.14))}
+
+
+def shared(spec: SceneSpec, name: str) -> str:
+    """Register the shared material ``name`` (a key of SHARED) and return its id."""
+    return spec.material(SHARED[name])
 
 
 def _build_cabinet(spec, rng, gid, piece, rect, axis, back):
-    p, m = piece.params, common_materials(spec)
+    p = piece.params
     h, depth = p["height"], piece.depth
     if p["wooden"]:
-        body = doors = m["oak"]
+        body = doors = shared(spec, "oak")
     else:
         body = spec.material(Material(f"{gid}_paint", "metal", rgb=p["paint"]))
         doors = spec.material(Material(f"{gid}_doors", "metal",
@@ -288,16 +291,15 @@ def _build_cabinet(spec, rng, gid, piece, rect, axis, back):
 
 
 def _build_shelves(spec, rng, gid, piece, rect, axis, back):
-    p, m = piece.params, common_materials(spec)
+    p = piece.params
     h = p["height"]
     levels = [round(0.05 + k * (h - 0.05) / (p["levels"] - 1), 3) for k in range(p["levels"])]
     if p["metal"]:
         side = spec.material(Material("shelf_blue", "metal", rgb=(0.05, 0.14, 0.42)))
-        board = m["bright"]
+        board = shared(spec, "bright")
     else:
-        side = board = m["oak"]
+        side = board = shared(spec, "oak")
     shapes = shelf_unit(gid, *_pair(rect), h, levels, side, board)
-    cardboard = spec.material(Material("cardboard", "wood", rgb=(0.45, 0.29, 0.14)))
     a, b = _span(rect, axis)
     across = _span(rect, "y" if axis == "x" else "x")
     k = 0
@@ -312,7 +314,8 @@ def _build_shelves(spec, rng, gid, piece, rect, axis, back):
             c_along, c_across = s + size[0] / 2, 0.5 * (across[0] + across[1])
             centre = (c_along, c_across) if axis == "x" else (c_across, c_along)
             dims = size if axis == "x" else (size[1], size[0], size[2])
-            shapes.append(item_box(f"{gid}_box_{k}", centre, lower, dims, cardboard))
+            shapes.append(item_box(f"{gid}_box_{k}", centre, lower, dims,
+                                   shared(spec, "cardboard")))
             s += size[0] + grid(rng.uniform(0.03, 0.2))
     return shapes
 
@@ -323,7 +326,8 @@ def _build_sofa(spec, rng, gid, piece, rect, axis, back):
 
 
 def _build_table(spec, rng, gid, piece, rect, axis, back):
-    p, m = piece.params, common_materials(spec)
+    p = piece.params
+    steel = shared(spec, "steel")
     depth, h = p["table_depth"], p["height"]
     across_side = ("south" if axis == "x" else "west")
     if back is None:  # free: chairs on both long sides
@@ -332,8 +336,7 @@ def _build_table(spec, rng, gid, piece, rect, axis, back):
     else:
         top = _strip(rect, back, 0.0, depth)
         sitters = [_OPPOSITE[back]]
-    top_mat = m["walnut"] if p["walnut"] else m["oak"]
-    shapes = table(gid, *_pair(top), h, top_mat, m["steel"])
+    shapes = table(gid, *_pair(top), h, shared(spec, "walnut" if p["walnut"] else "oak"), steel)
     seat = spec.material(Material(f"{gid}_chairs", "fabric", rgb=p["fabric"]))
     a, b = _span(top, axis)
     n = p["chairs"]
@@ -345,34 +348,35 @@ def _build_table(spec, rng, gid, piece, rect, axis, back):
             s = a + (j + 0.5) * (b - a) / n
             k += 1
             shapes += chair(f"{gid}_chair_{k}", (s, c) if axis == "x" else (c, s),
-                            _OPPOSITE[side], seat, m["steel"])
+                            _OPPOSITE[side], seat, steel)
     across = _span(top, "y" if axis == "x" else "x")
     for j in range(p["cups"]):
         s = a + (j + 1) * (b - a) / (p["cups"] + 1)
         c = 0.5 * (across[0] + across[1]) + (0.1 if j % 2 else -0.1)
         shapes += item_can(f"{gid}_cup_{j + 1}", (s, c) if axis == "x" else (c, s), h, 0.04,
-                           0.095, m["ceramic"])
+                           0.095, shared(spec, "ceramic"))
     return shapes
 
 
 def _build_desk(spec, rng, gid, piece, rect, axis, back):
-    p, m = piece.params, common_materials(spec)
+    p = piece.params
     sitter = _OPPOSITE[back] if back is not None else p["sitter"]
     desk = _strip(rect, _OPPOSITE[sitter], 0.0, p["desk_depth"])
     seat = spec.material(Material(f"{gid}_chair", "fabric", rgb=p["fabric"]))
     screen = spec.material(Material("monitor_black", "metal", rgb=(0.025, 0.025, 0.03)))
     plastic = spec.material(Material("plastic_grey", "wood", rgb=(0.30, 0.30, 0.32)))
     # workstation() names its objects desk_<k>, chair_<k>, ... from the number ending gid
-    return workstation(int(gid.rsplit("_", 1)[1]), *_pair(desk), sitter, m["walnut"], m["steel"],
-                       seat, screen, plastic, m["ceramic"])
+    return workstation(int(gid.rsplit("_", 1)[1]), *_pair(desk), sitter, shared(spec, "walnut"),
+                       shared(spec, "steel"), seat, screen, plastic, shared(spec, "ceramic"))
 
 
 def _build_lamp(spec, rng, gid, piece, rect, axis, back):
-    p, m = piece.params, common_materials(spec)
+    p = piece.params
     globe = spec.material(Material("lamp_globe", "plaster", rgb=PANEL_WHITE))
     centre = (0.5 * (rect[0] + rect[1]), 0.5 * (rect[2] + rect[3]))
     radiance = tuple(round(v * p["scale"], 3) for v in LAMP_RADIANCE)
-    return floor_lamp(gid, centre, p["height"], m["steel"], globe, radiance, globe=p["globe"])
+    return floor_lamp(gid, centre, p["height"], shared(spec, "steel"), globe, radiance,
+                      globe=p["globe"])
 
 
 _BUILD = {"cabinet": _build_cabinet, "shelves": _build_shelves, "sofa": _build_sofa,

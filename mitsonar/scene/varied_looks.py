@@ -61,7 +61,7 @@ class Surfaces:
 
     Attributes:
         walls: outer wall side ('south', ...) -> material id.
-        block: material of the faces of an L's corner block.
+        block: material of the faces of an L's corner block ('' without one).
         floor, ceiling: material ids.
         summary: e.g. "pale drywall walls, carpet floor, plaster ceiling".
     """
@@ -134,7 +134,8 @@ def draw_surfaces(rng: np.random.Generator, spec: SceneSpec, outline: Outline,
         else:
             mat = Material(f"wall_{w.side}_paint", preset, rgb=colours[w.side])
         walls[w.side] = spec.material(mat)
-    block = spec.material(Material("wall_block_paint", preset, rgb=colours[outer[0].side]))
+    block = "" if outline.block is None else spec.material(
+        Material("wall_block_paint", preset, rgb=colours[outer[0].side]))
     floor, floor_name = _floor(rng, spec, outline)
     ceiling_name = tuple(CEILINGS)[rng.choice(len(CEILINGS), p=_CEILING_P)]
     ceiling_preset, ceiling_colours = CEILINGS[ceiling_name]

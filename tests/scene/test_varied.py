@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import re
 import warnings
 
 import numpy as np
@@ -107,9 +108,17 @@ def test_different_seeds_differ(folder):
 
 
 @pytest.mark.parametrize("seed", SEEDS)
-def test_loads_with_ground_truth_areas(loaded, seed):
+def test_loads_with_exact_ground_truth(folder, loaded, seed):
+    """Shapes and their areas as Mitsuba has them; every material and texture written is used."""
     scene, gt = loaded(seed)
     assert gt["scene"] == f"varied_{seed}"
+    xml = (folder / f"varied_{seed}" / "scene.xml").read_text()
+    assert sorted(re.findall(r'<bsdf type="acoustic" id="([^"]+)">', xml)) == \
+        sorted(gt["materials"])
+    used = sorted({m["texture"] for m in gt["materials"].values() if "texture" in m})
+    assert gt["textures"] == used
+    pngs = sorted(p.name for p in (folder / f"varied_{seed}").glob("*.png"))
+    assert pngs == sorted(used + (["sky.png"] if gt["windows"] else []))
     by_id = {s["id"]: s for s in gt["shapes"]}
     assert sorted(scene.shape_ids) == sorted(by_id)
     for shape in scene.scene.shapes():
