@@ -4,7 +4,8 @@ Each scene of ``mitsonar.scene.shipped.SCENES`` goes to ``<out>/<name>/`` (defau
 file) as scene.xml, ground_truth.json and its PNGs (formats: ``mitsonar.scene.building.spec``).
 Deterministic: regenerating gives identical bytes (a test checks the shipped files against a
 fresh generation). Needs mitsonar installed (``make install``); ``--preview DIR`` also renders
-PNG previews with Mitsuba.
+PNG previews with Mitsuba. ``--varied N --out DIR`` writes the varied rooms ``varied_0`` ...
+``varied_<N-1>`` (``mitsonar.scene.varied``) instead of the shipped scenes.
 """
 
 from __future__ import annotations
@@ -16,6 +17,7 @@ from pathlib import Path
 
 from mitsonar.scene.building.preview import render_preview
 from mitsonar.scene.shipped import SCENES
+from mitsonar.scene.varied import varied_room, write_varied_rooms
 
 #: What scene.xml's header names as the program to edit.
 WRITTEN_BY = "scenes/generate.py"
@@ -40,9 +42,15 @@ def main(argv=None) -> int:
     p.add_argument("--preview", type=Path, metavar="DIR",
                    help="also render <DIR>/<scene>_camera.png and <scene>_overview.png "
                         "(320 x 240, 16 spp)")
+    p.add_argument("--varied", type=int, metavar="N",
+                   help="write the varied rooms varied_0 ... varied_<N-1> (seeds 0 ... N-1) "
+                        "instead of the shipped scenes; needs --out")
     args = p.parse_args(argv)
+    if args.varied is not None and (args.out is None or args.only or args.varied < 1):
+        p.error("--varied N needs N >= 1 and --out DIR, and no --only")
     try:
-        paths = generate(args.out, args.only)
+        paths = generate(args.out, args.only) if args.varied is None else \
+            write_varied_rooms(args.out, range(args.varied))
     except ValueError as err:
         print(f"generate.py: error: {err}", file=sys.stderr)
         return 2
@@ -51,7 +59,9 @@ def main(argv=None) -> int:
         print(f"{path}: {len(gt['shapes'])} shapes, floor {gt['floor_area_m2']:.2f} m^2, "
               f"{len(gt['windows'])} windows")
         if args.preview:
-            spec = SCENES[path.parent.name]()
+            name = path.parent.name
+            spec = SCENES[name]() if args.varied is None else \
+                varied_room(int(name.removeprefix("varied_")))
             for view in ("camera", "overview"):
                 png = args.preview / f"{spec.name}_{view}.png"
                 render_preview(path, png, view, overview=spec.overview)

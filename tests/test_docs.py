@@ -67,6 +67,7 @@ QUICK: list[tuple[str, dict | str]] = [
     ("mitsonar array plot --out out/array", {}),
     (".venv/bin/python scenes/generate.py", {"--out": "out/scenes", "--only": "room_glass"}),
     (".venv/bin/python scenes/generate.py --only office --out out/scenes", {}),
+    (".venv/bin/python scenes/generate.py --varied 10 --out out/varied", {"--varied": "1"}),
     (".venv/bin/python benchmarks/run.py", {"--quick": None}),
     (".venv/bin/python benchmarks/run.py --quick", {}),
     *[(f".venv/bin/python experiments/{name}.py {quick}--out out/{name}", BY_TEST_EXPERIMENTS)

@@ -29,7 +29,8 @@ Modules, one concept each:
 * ``lights``: ceiling light panels, the sun and the sky environment map.
 * ``materials``: the ``acoustic`` material with its optical BSDF, and a palette.
 * ``textures``: procedural PNG textures (wood, concrete, hazard stripes, carpet).
-* ``furniture``: tables, chairs, sofas, shelving, desk workstations, boxes, cans and rods.
+* ``furniture``: tables, chairs, sofas, shelving, desk workstations, a glass partition, a
+  floor lamp, boxes, cans and rods.
 * ``formatting``: exact number formatting and atomic output, so the files are reproducible.
 * ``preview``: PNG previews rendered with Mitsuba.
 

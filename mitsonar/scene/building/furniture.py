@@ -1,14 +1,17 @@
-"""Furniture kit and small objects: tables, chairs, sofas, shelving, a desk workstation, and
-boxes, cans and rods standing or lying on a surface. Free-standing objects are built from closed
+"""Furniture kit and small objects: tables, chairs, sofas, shelving, a desk workstation, a
+free-standing glass partition, a floor lamp, and boxes, cans and rods standing or lying on a
+surface. Free-standing objects are built from closed
 pieces (cubes, capped cylinders, spheres), so each piece's area is that of a solid; where pieces
 touch (a leg under a table top, a can on a shelf) the touching faces are hidden but still
 counted in the ground-truth areas. Every piece's group is its object's id ``gid``."""
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
-from mitsonar.scene.building.shapes import Interval, Shape, block, closed_cylinder
+from mitsonar.scene.building.shapes import Interval, Shape, block, closed_cylinder, sphere
 
 
 def table(gid: str, x: Interval, y: Interval, height: float, top_mat: str, leg_mat: str,
@@ -146,3 +149,36 @@ def workstation(k: int, x: Interval, y: Interval, sitter: str, top_mat: str, leg
                         keyboard_mat)]
     return shapes + item_can(f"cup_{k}", (cx + 0.45, near - sy * 0.22), height, 0.04, 0.095,
                              cup_mat)
+
+
+def glass_partition(gid: str, x: Interval, y: Interval, height: float, glass_mat: str,
+                    foot_mat: str, pane: float = 0.012, foot: float = 0.05) -> list[Shape]:
+    """Free-standing glass screen over the plan rectangle x, y: a pane ``pane`` [m] thick (a
+    closed thin box, ``glass_mat``: the glass preset with a thin dielectric, like the windows)
+    along the rectangle's longer axis, centred across it, from ``foot`` to ``height`` [m], on two
+    feet ``foot`` [m] high and wide, as deep as the rectangle, under its ends."""
+    along_x = (x[1] - x[0]) >= (y[1] - y[0])
+    lo, hi = x if along_x else y
+    c = 0.5 * (y[0] + y[1]) if along_x else 0.5 * (x[0] + x[1])
+    across = (c - pane / 2, c + pane / 2)
+    shapes = [block(f"{gid}_pane", *((x, across) if along_x else (across, y)), (foot, height),
+                    glass_mat, "furniture", gid)]
+    for k, ends in enumerate(((lo, lo + foot), (hi - foot, hi))):
+        shapes.append(block(f"{gid}_foot_{k + 1}", *((ends, y) if along_x else (x, ends)),
+                            (0.0, foot), foot_mat, "furniture", gid))
+    return shapes
+
+
+def floor_lamp(gid: str, centre_xy, height: float, body_mat: str, globe_mat: str,
+               radiance, globe: float = 0.15) -> list[Shape]:
+    """Floor lamp at plan point ``centre_xy``: a round base (radius 0.16 m, 0.03 m high), a pole
+    and a glowing globe of radius ``globe`` [m] whose top is at ``height`` [m]; the globe is an
+    area light of ``radiance`` [W/(m^2 sr)] (linear RGB)."""
+    cx, cy = centre_xy
+    top_of_pole = height - 2 * globe
+    return [*closed_cylinder(f"{gid}_base", (cx, cy, 0.0), 0.16, 0.03, body_mat, "furniture",
+                             gid),
+            *closed_cylinder(f"{gid}_pole", (cx, cy, 0.03), 0.015, top_of_pole - 0.03, body_mat,
+                             "furniture", gid),
+            replace(sphere(f"{gid}_globe", (cx, cy, height - globe), globe, globe_mat,
+                           "furniture", gid), radiance=tuple(radiance))]
