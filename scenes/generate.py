@@ -17,7 +17,7 @@ from pathlib import Path
 
 from mitsonar.scene.building.preview import render_preview
 from mitsonar.scene.shipped import SCENES
-from mitsonar.scene.varied import varied_room, write_varied_rooms
+from mitsonar.scene.varied.room import varied_room, write_varied_rooms
 
 #: What scene.xml's header names as the program to edit.
 WRITTEN_BY = "scenes/generate.py"

@@ -8,6 +8,6 @@
 * ``building``: the building blocks of whole rooms (shell with openings, windows, lights,
   furniture, materials, textures) and the writer of scene.xml + ground_truth.json.
 * ``shipped``: the four shipped scenes, one short module each (``scenes/generate.py`` writes them).
-* ``varied`` (with ``varied_plan``, ``varied_glass``, ``varied_looks``, ``varied_furniture``):
-  furnished rooms drawn from a seed, to try methods beyond the shipped scenes.
+* ``varied``: furnished rooms drawn from a seed (plan, looks, glass, furniture), to try methods
+  beyond the shipped scenes.
 """

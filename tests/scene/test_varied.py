@@ -16,7 +16,7 @@ import mitsonar
 from mitsonar.frames import Pose, direction_from_fov_angles
 from mitsonar.scene.loading import DefaultMaterialWarning, mitsuba
 from mitsonar.scene.rays import rays
-from mitsonar.scene.varied import varied_room, write_varied_rooms
+from mitsonar.scene.varied.room import varied_room, write_varied_rooms
 from mitsonar.scenes import generate
 
 SEEDS = range(10)

@@ -16,7 +16,7 @@ import numpy as np
 from mitsonar.scene.building.lights import SUN_IRRADIANCE
 from mitsonar.scene.building.openings import Opening
 from mitsonar.scene.building.shapes import Rect2
-from mitsonar.scene.varied_plan import CLEARANCE, MARGIN, FreeFloor, Wall, exact, grid, look_at
+from mitsonar.scene.varied.plan import CLEARANCE, MARGIN, FreeFloor, Wall, exact, grid, look_at
 
 #: Half-angle [deg] about a leg's line within which glass is placed (near-normal echoes).
 NEAR_NORMAL_DEG = 20.0

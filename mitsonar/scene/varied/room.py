@@ -4,17 +4,17 @@ on rooms nobody tuned them for, beside the four shipped scenes.
 Each room (named ``varied_<seed>``) is drawn by a NumPy generator seeded with the seed, so the
 same seed writes byte-identical files:
 
-* plan (:mod:`~mitsonar.scene.varied_plan`): 4-9 m x 3.5-7 m, 2.4-3.2 m high, sometimes an L
+* plan (:mod:`~mitsonar.scene.varied.plan`): 4-9 m x 3.5-7 m, 2.4-3.2 m high, sometimes an L
   (a corner cut off by a thick block); the robot's default trajectory is a loop once round the
   room, 0.9 m or more from each wall (more where furniture stands along it) and 0.85 m or more
   from every object's footprint, driving towards the wall ahead and turning on the spot at the
   corners. It starts at the world origin facing +x, with a clear view of the wall ahead.
-* glass (:mod:`~mitsonar.scene.varied_glass`): windows in the outer walls and/or a free-standing
+* glass (:mod:`~mitsonar.scene.varied.glass`): windows in the outer walls and/or a free-standing
   glass partition (every room has at least one), a sun through a window in most rooms with
   windows, and the sky seen through them.
-* looks (:mod:`~mitsonar.scene.varied_looks`): wall colours (pale near-uniform ones included)
+* looks (:mod:`~mitsonar.scene.varied.looks`): wall colours (pale near-uniform ones included)
   and textures, floor and ceiling finishes, ceiling lights of one kind.
-* furniture (:mod:`~mitsonar.scene.varied_furniture`): a cabinet and more pieces (shelves,
+* furniture (:mod:`~mitsonar.scene.varied.furniture`): a cabinet and more pieces (shelves,
   sofas, tables with chairs, desks, a floor lamp), none overlapping, clear of the loop.
 
 Glass (windows and the partition) has the acoustic ``glass`` preset and a ``thindielectric``
@@ -35,11 +35,11 @@ from mitsonar.scene.building.lights import ceiling_lights
 from mitsonar.scene.building.materials import PANEL_WHITE, Material
 from mitsonar.scene.building.shell import ThickWall, enclosure
 from mitsonar.scene.building.spec import SceneSpec
-from mitsonar.scene.varied_furniture import DRAW, build, draw_pieces, place, plan_walls, shared
-from mitsonar.scene.varied_glass import (PARTITION_BAND, Window, draw_partition, draw_sun,
+from mitsonar.scene.varied.furniture import DRAW, build, draw_pieces, place, plan_walls, shared
+from mitsonar.scene.varied.glass import (PARTITION_BAND, Window, draw_partition, draw_sun,
                                          draw_windows)
-from mitsonar.scene.varied_looks import draw_lights, draw_surfaces
-from mitsonar.scene.varied_plan import (CLEARANCE, FreeFloor, Outline, draw_insets, draw_outline,
+from mitsonar.scene.varied.looks import draw_lights, draw_surfaces
+from mitsonar.scene.varied.plan import (CLEARANCE, FreeFloor, Outline, draw_insets, draw_outline,
                                         exact, gap, grid, loop_corners, loop_legs, loop_trajectory,
                                         moved)
 
@@ -75,8 +75,8 @@ def write_varied_rooms(out_dir, seeds) -> list[Path]:
 class _Plan:
     """A room planned with its walls on the grid (south-west corner at the origin): outline,
     height [m], loop corners, the loop's start (the world origin once written), windows, the
-    partition (see :func:`~mitsonar.scene.varied_glass.draw_partition`) and the placed pieces
-    (see :func:`~mitsonar.scene.varied_furniture.place`)."""
+    partition (see :func:`~mitsonar.scene.varied.glass.draw_partition`) and the placed pieces
+    (see :func:`~mitsonar.scene.varied.furniture.place`)."""
 
     outline: Outline
     height: float

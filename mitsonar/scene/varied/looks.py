@@ -22,7 +22,7 @@ from mitsonar.scene.building.materials import ORANGE, Material
 from mitsonar.scene.building.shapes import Rect2
 from mitsonar.scene.building.spec import SceneSpec
 from mitsonar.scene.building.surfaces import vertical_face
-from mitsonar.scene.varied_plan import Outline, Wall, grid
+from mitsonar.scene.varied.plan import Outline, Wall, grid
 
 #: Mid colours of painted walls (linear RGB).
 HUES = ((0.42, 0.55, 0.72), (0.55, 0.68, 0.52), (0.76, 0.64, 0.48), (0.66, 0.36, 0.26),

@@ -1,7 +1,7 @@
 """Furniture of the varied rooms (:mod:`mitsonar.scene.varied`): pieces drawn from the kit of
 :mod:`mitsonar.scene.building.furniture` (cabinets, open shelves with boxes, sofas, tables with
 chairs and cups, desk workstations, floor lamps), each placed against a wall or free inside the
-loop where the :class:`~mitsonar.scene.varied_plan.FreeFloor` has room, none overlapping.
+loop where the :class:`~mitsonar.scene.varied.plan.FreeFloor` has room, none overlapping.
 
 A piece's plan rectangle is its length (along the wall, or its long axis) by its depth; against
 a wall it stands WALL_GAP in front of the face, its back (a sofa's backrest, a cabinet's rear,
@@ -20,7 +20,7 @@ from mitsonar.scene.building.furniture import (chair, floor_lamp, item_box, item
 from mitsonar.scene.building.materials import PANEL_WHITE, Material
 from mitsonar.scene.building.shapes import Rect2, Shape, block
 from mitsonar.scene.building.spec import SceneSpec
-from mitsonar.scene.varied_plan import (CLEARANCE, MARGIN, MIN_INSET, FreeFloor, Outline, grid,
+from mitsonar.scene.varied.plan import (CLEARANCE, MARGIN, MIN_INSET, FreeFloor, Outline, grid,
                                         loop_corners)
 
 #: Gap between a piece and the wall behind it [m] (on the grid).
