@@ -56,8 +56,8 @@ STAGES = (
      [("synthesis.py", "groups_spectrum"), ("band.py", "to_samples")],
      [("synthesis.py", "impulse_grid")]),
     ("receiver noise", [("synthesis.py", "recording")], []),
-    ("receive chain (beamforming to depth)", [("receiver.py", "process"),
-                                              ("receiver.py", "noiseless_envelope")], []),
+    ("receive chain (beamforming to depth)", [("receiver.py", "process_beams"),
+                                              ("receiver.py", "noiseless_envelopes")], []),
 )
 
 

@@ -17,7 +17,7 @@ from mitsonar.physics.materials import PRESETS, AcousticMaterial, preset  # noqa
 from mitsonar.physics.medium import Medium  # noqa: E402
 from mitsonar.sensors.ofdm_sonar import OfdmSonar  # noqa: E402
 from mitsonar.signal.ofdm import Schedule, code_set  # noqa: E402
-from mitsonar.signal.receiver import Detection, DetectionSettings  # noqa: E402
+from mitsonar.signal.detection import Detection, DetectionSettings  # noqa: E402
 from mitsonar.scene.loading import AcousticScene, SceneError, load_scene  # noqa: E402
 from mitsonar.physics.waveforms import Pulse  # noqa: E402
 from mitsonar.sensors.sonar import Ping, Scan, Sonar, SonarConfig  # noqa: E402

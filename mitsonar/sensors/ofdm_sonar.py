@@ -4,7 +4,8 @@ All beams of a cycle are superposed in one per-channel recording: each beam is t
 sensor pose at its own transmit time (the robot moves during a frame), driven by its code through
 the transducer response, and the direct cross-talk of every code is included. Decoding: for each
 code, matched filter with its own waveform, delay-and-sum toward its direction, detection relative
-to its transmit time inside the listening window, depth by (7). Codes and schedules:
+to its transmit time inside the listening window, depth by (7); all beams of a cycle are decoded
+together (:meth:`~mitsonar.signal.receiver.EchoProcessor.process_beams`). Codes and schedules:
 :mod:`mitsonar.signal.ofdm`.
 """
 
@@ -34,7 +35,8 @@ class Frame:
         points_sensor: (B, 3) reflectors in the sensor frame of each beam's pose (NaN if none).
         world_from_sensor: (B, 4, 4) sensor pose when each beam was fired.
         crosstalk_db: (B,) level that the other codes of the cycle leave in this code's decoded
-            envelope, relative to this beam's own echo [dB] (NaN where nothing was detected).
+            envelope, relative to this beam's own echo [dB] (NaN where nothing was detected, and
+            everywhere unless asked for: it needs every beam's echoes apart).
         start_time: frame start on the trajectory's clock [s].
     """
 
@@ -75,7 +77,8 @@ class OfdmSonar:
         self.sonar.config.geometry.check_in_fov(directions)
         return Schedule.build(directions, self.codes, self.listen)
 
-    def frame(self, schedule: Schedule, pose_at, start_time: float = 0.0, seed: int = 0) -> Frame:
+    def frame(self, schedule: Schedule, pose_at, start_time: float = 0.0, seed: int = 0,
+              crosstalk: bool = True) -> Frame:
         """Simulate and decode one frame.
 
         Args:
@@ -83,6 +86,8 @@ class OfdmSonar:
             pose_at: function time [s] -> world-from-sensor :class:`Pose` (the robot's motion).
             start_time: frame start on ``pose_at``'s clock [s].
             seed: seeds noise and diffuse phases (same seed, same frame).
+            crosstalk: measure the codes' cross-talk (``Frame.crosstalk_db``; keeps every beam's
+                echo spectra of a cycle apart).
         """
         n = len(schedule.directions)
         detected = np.zeros(n, bool)
@@ -90,58 +95,62 @@ class OfdmSonar:
         amplitude = np.zeros(n)
         points = np.full((n, 3), np.nan)
         poses = np.zeros((n, 4, 4))
-        crosstalk = np.full(n, np.nan)
+        crosstalk_db = np.full(n, np.nan)
         for c in range(len(schedule.cycle_start)):  # cycles follow each other in time
             beams = np.nonzero(schedule.cycle == c)[0]
-            result = self._cycle(schedule, beams, pose_at, start_time, seed)
+            result = self._cycle(schedule, beams, pose_at, start_time, seed, crosstalk)
             for key, target in (("detected", detected), ("depth", depth), ("amplitude", amplitude),
-                                ("crosstalk", crosstalk)):
+                                ("crosstalk", crosstalk_db)):
                 target[beams] = result[key]
             points[beams] = result["points"]
             poses[beams] = result["poses"]
-        return Frame(schedule, detected, depth, amplitude, points, poses, crosstalk, start_time)
+        return Frame(schedule, detected, depth, amplitude, points, poses, crosstalk_db, start_time)
 
-    def _cycle(self, schedule: Schedule, beams, pose_at, start_time: float, seed: int) -> dict:
+    def _cycle(self, schedule: Schedule, beams, pose_at, start_time: float, seed: int,
+               crosstalk: bool) -> dict:
         sonar = self.sonar
         n_rx = sonar.config.geometry.rx.count
         t0 = schedule.cycle_start[schedule.cycle[beams[0]]]
         offsets = schedule.transmit_time[beams] - t0  # firing times within the cycle
         codes = [schedule.codes[k] for k in schedule.code_index[beams]]
+        directions = schedule.directions[beams]
         poses = [pose_at(start_time + schedule.transmit_time[b]) for b in beams]
-        echo_spectra = []
+        echo_spectra = []  # each beam's, kept for the cross-talk only
+        echoes = None
         for first in range(0, len(beams), TRACE_BATCH):  # beams traced a batch at a time
             batch = slice(first, first + TRACE_BATCH)
-            traces = sonar.tracer.trace_many(poses[batch], schedule.directions[beams[batch]],
+            traces = sonar.tracer.trace_many(poses[batch], directions[batch],
                                              [_seed(seed, b) for b in beams[batch]])
             for trace, offset, code in zip(traces, offsets[batch], codes[batch]):
                 groups = [(p.delayed(offset), w)
                           for p, w in sonar.echo_groups(trace.paths, code, self.synth)]
-                echo_spectra.append(self.synth.groups_spectrum(groups, n_rx))
+                spectrum = self.synth.groups_spectrum(groups, n_rx)
+                echoes = spectrum if echoes is None else echoes + spectrum
+                if crosstalk:
+                    echo_spectra.append(spectrum)
         direct_total = self.synth.groups_spectrum(
-            [(sonar.tracer.direct_paths(schedule.directions[b]).delayed(offset), code)
-             for b, offset, code in zip(beams, offsets, codes)], n_rx)
-        total = np.sum(echo_spectra, axis=0) + direct_total
+            [(sonar.tracer.direct_paths(u).delayed(offset), code)
+             for u, offset, code in zip(directions, offsets, codes)], n_rx)
+        total = echoes + direct_total
         rec = self.synth.recording(self.band.to_samples(total), sonar.config.noise_rms,
                                    seed=_seed(seed, int(beams[0]), _NOISE_STREAM))
-        out = {key: [] for key in ("detected", "depth", "amplitude", "points", "crosstalk")}
-        max_path = 2.0 * sonar.config.max_range  # the listening window of every code
-        for i, (b, offset, code) in enumerate(zip(beams, offsets, codes)):
-            u = schedule.directions[b]
-            blank = self.processor.noiseless_envelope(direct_total, u, code)
-            env, det = self.processor.process(rec, u, blank, code, transmit_time=offset,
-                                              max_path_length=max_path)
-            out["detected"].append(det.detected)
-            out["depth"].append(det.depth)
-            out["amplitude"].append(det.amplitude)
-            out["points"].append(det.point)
-            if det.detected:  # what the cycle's other beams (and the direct paths) leave here
-                leak = self.processor.noiseless_envelope(total - echo_spectra[i], u, code)
-                window = np.abs(rec.times - offset - det.time_of_arrival) < 2 * code.slot
-                out["crosstalk"].append(20 * np.log10(max(leak[window].max(), 1e-30) / det.amplitude))
-            else:
-                out["crosstalk"].append(np.nan)
-        out["poses"] = np.array([pose.matrix() for pose in poses])
-        return {key: np.array(value) for key, value in out.items()}
+        processor = self.processor
+        blank = processor.noiseless_envelopes(direct_total, directions, codes)
+        _, det = processor.process_beams(rec, directions, blank, codes, transmit_times=offsets,
+                                         max_path_length=2.0 * sonar.config.max_range)
+        leaks = np.full(len(beams), np.nan)
+        if crosstalk and det.detected.any():  # what the other beams (and direct paths) leave
+            found = np.flatnonzero(det.detected)
+            leak = processor.noiseless_envelopes(total - np.stack([echo_spectra[i] for i in found]),
+                                                 directions[found], [codes[i] for i in found])
+            slot = np.array([codes[i].slot for i in found])[:, None]
+            window = np.abs(rec.times - offsets[found, None]
+                            - det.time_of_arrival[found, None]) < 2 * slot
+            strongest = np.where(window, leak, 0.0).max(axis=1)
+            leaks[found] = 20 * np.log10(np.maximum(strongest, 1e-30) / det.amplitude[found])
+        return {"detected": det.detected, "depth": det.depth, "amplitude": det.amplitude,
+                "points": det.point, "crosstalk": leaks,
+                "poses": np.array([pose.matrix() for pose in poses])}
 
 
 _NOISE_STREAM = 1_000_003  # separates the noise seeds from the per-beam trace seeds

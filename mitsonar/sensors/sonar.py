@@ -21,7 +21,8 @@ from mitsonar.physics.array import ArrayGeometry
 from mitsonar.frames import Pose
 from mitsonar.trace.hitpaths import HitPaths
 from mitsonar.physics.medium import Medium
-from mitsonar.signal.receiver import Detection, DetectionSettings, EchoProcessor
+from mitsonar.signal.detection import Detection, DetectionSettings
+from mitsonar.signal.receiver import EchoProcessor
 from mitsonar.scene.loading import AcousticScene, load_scene
 from mitsonar.physics.waveforms import Pulse
 from mitsonar.signal.band import Band, Recording
@@ -262,23 +263,35 @@ class Sonar:
             raise ValueError(f"direction must be a (3,) vector, got shape {u.shape}")
         self.config.geometry.check_in_fov(u)
         u = u / np.linalg.norm(u)
-        return self._receive(u, self.tracer.trace(pose, u, seed=seed), seed)
-
-    def _receive(self, u: np.ndarray, trace: TraceResult, seed: int) -> Ping:
-        """The echoes of a traced beam (unit direction ``u``), recorded and processed."""
-        n_rx = self.config.geometry.rx.count
-        direct = self.tracer.direct_paths(u)
-        groups = self.echo_groups(trace.paths, self.config.pulse) + [(direct, self.config.pulse)]
-        synth = self.synthesizer
-        recording = synth.recording(self.band.to_samples(synth.groups_spectrum(groups, n_rx)),
-                                    self.config.noise_rms, seed=[seed, 1])
-        key = tuple(np.round(u, 12))
-        if key not in self._direct_envelopes:  # depends on the direction only: computed once
-            self._direct_envelopes[key] = self.processor.noiseless_envelope(
-                synth.group_spectrum(direct, None, n_rx), u)
-        direct_envelope = self._direct_envelopes[key]
+        trace = self.tracer.trace(pose, u, seed=seed)
+        recording = self._record(u, trace, seed)
+        direct_envelope = self._direct_envelopes_towards(u[None])[0]
         envelope, detection = self.processor.process(recording, u, direct_envelope)
         return Ping(u, trace, recording, envelope, direct_envelope, detection)
+
+    def _record(self, u: np.ndarray, trace: TraceResult, seed: int) -> Recording:
+        """The noisy recording of a traced beam (unit direction ``u``) and its direct paths."""
+        groups = self.echo_groups(trace.paths, self.config.pulse) \
+            + [(self.tracer.direct_paths(u), self.config.pulse)]
+        synth = self.synthesizer
+        spectrum = synth.groups_spectrum(groups, self.config.geometry.rx.count)
+        return synth.recording(self.band.to_samples(spectrum), self.config.noise_rms,
+                               seed=[seed, 1])
+
+    def _direct_envelopes_towards(self, directions: np.ndarray) -> np.ndarray:
+        """Envelopes (B, N) of the direct paths alone towards unit directions (B, 3), the
+        blanking references; they depend on the direction only: each computed once."""
+        keys = [tuple(np.round(u, 12)) for u in directions]
+        missing = dict((key, u) for key, u in zip(keys, directions)
+                       if key not in self._direct_envelopes)
+        if missing:
+            n_rx = self.config.geometry.rx.count
+            todo = np.array(list(missing.values()))
+            spectra = np.stack([self.synthesizer.group_spectrum(self.tracer.direct_paths(u), None,
+                                                                n_rx) for u in todo])
+            self._direct_envelopes.update(zip(missing,
+                                              self.processor.noiseless_envelopes(spectra, todo)))
+        return np.stack([self._direct_envelopes[key] for key in keys])
 
     def echo_groups(self, paths: Paths | HitPaths, waveform,
                     synthesizer: EchoSynthesizer | None = None) -> list:
@@ -304,23 +317,26 @@ class Sonar:
         band = self.band
         echoes = np.empty((len(dirs), n_rx, band.n_samples),
                           dtype=np.complex64 if band.baseband else np.float32)
-        detections = []
+        found = []
         for first in range(0, len(dirs), TRACE_BATCH):
             beams = range(first, min(first + TRACE_BATCH, len(dirs)))
             seeds = [_beam_seed(seed, b) for b in beams]
-            traces = self.tracer.trace_many([pose] * len(beams), dirs[first:beams.stop], seeds)
-            for b, beam_seed, trace in zip(beams, seeds, traces):  # each beam's echoes, vectorised
-                ping = self._receive(dirs[b], trace, beam_seed)
-                echoes[b] = ping.recording.samples  # keep the echoes and the decision, not the paths
-                detections.append(ping.detection)
+            batch = dirs[first:beams.stop]
+            traces = self.tracer.trace_many([pose] * len(beams), batch, seeds)
+            recordings = [self._record(u, trace, beam_seed)  # each beam's echoes, vectorised
+                          for u, trace, beam_seed in zip(batch, traces, seeds)]
+            found.append(self.processor.process_beams(recordings, batch,
+                                                      self._direct_envelopes_towards(batch))[1])
+            for b, recording in zip(beams, recordings):  # keep the echoes, not the paths
+                echoes[b] = recording.samples
                 if progress is not None:
                     progress(b)
-        return Scan(pose=pose, directions=dirs,
-                    detected=np.array([d.detected for d in detections], dtype=bool),
-                    depth=np.array([d.depth for d in detections]),
-                    amplitude=np.array([d.amplitude for d in detections]),
-                    points_sensor=np.array([d.point for d in detections]).reshape(-1, 3),
-                    echoes=echoes, sample_rate=band.sample_rate, start_time=band.start_time,
+        joined = {name: np.concatenate([getattr(d, name) for d in found])
+                  for name in ("detected", "depth", "amplitude", "point")}
+        return Scan(pose=pose, directions=dirs, detected=joined["detected"],
+                    depth=joined["depth"], amplitude=joined["amplitude"],
+                    points_sensor=joined["point"].reshape(-1, 3), echoes=echoes,
+                    sample_rate=band.sample_rate, start_time=band.start_time,
                     carrier=band.carrier)
 
 

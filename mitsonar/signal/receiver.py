@@ -4,7 +4,15 @@ Order and choices:
 
 * Delay-and-sum (5) with the plane-wave delays t_j^B(psi) = -(p_j - o_R) . u / c relative to
   the receive origin o_R, applied exactly as phase ramps exp(j 2 pi f t_j^B) in the frequency
-  domain (fractional delays without interpolation error).
+  domain (fractional delays without interpolation error; :mod:`mitsonar.signal.beamforming`).
+* Batched: B beams are processed together (:meth:`EchoProcessor.process_beams`), from B
+  recordings (a scan) or from one recording shared by all (an OFDM cycle, each beam with its
+  own code, firing time and listening window): one FFT of all channels, one delay-and-sum over
+  (B, N_rx, nb) on the band, one inverse FFT of every envelope, candidates found on (B, N), the
+  side-lobe check in one sparse product per carrier for the strongest candidate of every beam
+  and one for the other candidates of the beams whose strongest was rejected (look after look:
+  a candidate rejected in one look is not checked in the next), the arrival directions of
+  every detected beam in one more. One beam is the case B = 1.
 * Matched filter (6) with the expected echo shape (drive pulse through both transducer
   responses), normalised so that an echo of path gain A gives an envelope peak of |A| [Pa].
   Beamforming and filtering share one FFT per channel and one inverse FFT, and are computed on
@@ -45,100 +53,13 @@ Order and choices:
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
-from scipy import sparse
 
 from mitsonar.physics.array import ArrayGeometry
-from mitsonar.frames import direction_from_fov_angles, fov_angles
-from mitsonar.physics.waveforms import phasor
 from mitsonar.signal.band import Band, Recording
-from mitsonar.validation import check_positive
-
-
-@dataclass(frozen=True)
-class DetectionSettings:
-    """Receiver decision parameters.
-
-    Attributes:
-        detection_snr: threshold over the RMS noise envelope (5 gives a false-alarm probability
-            of exp(-25) per sample).
-        detection_floor: absolute threshold on the envelope [Pa] (matters without noise).
-        blanking_margin: factor over the direct-path envelope a detection must exceed.
-        min_range: nearest depth reported [m].
-        ghost_margin: factor by which an off-beam receive direction must beat the beam for a
-            candidate to be rejected as a side-lobe arrival (0 disables the check).
-        ghost_exclusion: half-angle around the beam treated as its main lobe [rad].
-        ghost_grid_step: spacing of the receive directions checked [rad].
-        ghost_half_span: the checked directions cover +-this horizontally and vertically [rad]
-            (wider than the field of view: side-lobe echoes come from anywhere in front).
-        max_candidates: envelope peaks examined, strongest first.
-        part_balance: for waveforms with ``parts``, the weakest part's envelope over the
-            strongest's that a candidate needs (in (0, 1]; an echo carries both equally).
-        arrival_step: grid step of the arrival-direction estimate within the main lobe [rad]
-            (module docstring; 0: every point on the beam axis, as the paper).
-    """
-
-    detection_snr: float = 5.0
-    detection_floor: float = 1e-3
-    blanking_margin: float = 2.0
-    min_range: float = 0.2
-    ghost_margin: float = 1.2
-    ghost_exclusion: float = np.radians(6.0)
-    ghost_grid_step: float = np.radians(2.0)
-    ghost_half_span: float = np.radians(50.0)
-    max_candidates: int = 8
-    part_balance: float = 0.3
-    arrival_step: float = np.radians(0.5)
-
-    def __post_init__(self):
-        for name in ("detection_snr", "detection_floor", "blanking_margin", "min_range",
-                     "ghost_exclusion", "ghost_grid_step", "ghost_half_span"):
-            check_positive(f"DetectionSettings.{name}", getattr(self, name))
-        if not (np.isfinite(self.ghost_margin) and self.ghost_margin >= 0):
-            raise ValueError(f"DetectionSettings.ghost_margin must be >= 0, got {self.ghost_margin}")
-        if not (np.isfinite(self.arrival_step) and self.arrival_step >= 0):
-            raise ValueError(f"DetectionSettings.arrival_step [rad] must be >= 0, got {self.arrival_step}")
-        if not 0 < self.part_balance <= 1:
-            raise ValueError(f"DetectionSettings.part_balance must be in (0, 1], got {self.part_balance}")
-        if int(self.max_candidates) != self.max_candidates or self.max_candidates < 1:
-            raise ValueError(f"DetectionSettings.max_candidates must be an integer >= 1, "
-                             f"got {self.max_candidates}")
-
-
-@dataclass(frozen=True)
-class Detection:
-    """Result of processing one beam.
-
-    Attributes:
-        detected: True when an echo passed every test.
-        time_of_arrival: [s] from the virtual firing of the transmit origin (NaN if none).
-        path_length: l = c * time_of_arrival [m] (NaN if none).
-        depth: distance of the point from the transmit origin, (7) [m] (NaN if none); along the
-            beam unless the arrival direction is estimated.
-        point: (3,) reflector in the sensor frame [m] (NaN if none).
-        direction: (3,) unit vector the echo arrived from, the beam's own direction without an
-            arrival-direction estimate (NaN if none).
-        amplitude: strongest envelope value beyond the minimum range [Pa] (finite even when not
-            detected: what the receiver saw).
-        threshold: envelope level that amplitude had to exceed there [Pa].
-    """
-
-    detected: bool
-    time_of_arrival: float
-    path_length: float
-    depth: float
-    point: np.ndarray
-    direction: np.ndarray
-    amplitude: float
-    threshold: float
-
-
-def bistatic_depth(path_length, baseline: float, cos_beam_baseline) -> np.ndarray:
-    """Equation (7): depth [m] from path length l [m], baseline b [m] and cos(theta_b)."""
-    l = np.asarray(path_length, dtype=float)
-    return (l**2 - baseline**2) / (2.0 * (l - baseline * np.asarray(cos_beam_baseline)))
+from mitsonar.signal.beamforming import Beamformer, dot
+from mitsonar.signal.detection import (Detection, Detections, DetectionSettings, bistatic_depth,
+                                       candidates, vertex)
 
 
 class EchoProcessor:
@@ -159,23 +80,8 @@ class EchoProcessor:
         self.c = float(speed_of_sound)
         self.settings = settings
         self.noise_rms = float(noise_rms)
+        self.beamformer = Beamformer(geometry, band, speed_of_sound, settings)
         self._filters = {}
-        # Side-lobe check: a ``ghost_grid_step`` grid over +-``ghost_half_span`` in both
-        # field-of-view angles, the same for every beam, and its delay-and-sum per carrier [Hz].
-        h = np.arange(-settings.ghost_half_span, settings.ghost_half_span + 1e-9,
-                      settings.ghost_grid_step)
-        hh, vv = np.meshgrid(h, h, indexing="ij")
-        self._ghost_grid = direction_from_fov_angles(hh, vv).reshape(-1, 3)
-        self._ghost_operators = {}
-        # Of the last recording processed: its channel spectra and demodulated looks per
-        # waveform (an OFDM cycle decodes every beam from one recording, and beams
-        # whose codes share a tone share that tone's look).
-        self._recording_cache = (None, {})
-        self._steering = (None, None)  # (direction, (N_rx, nb) phasors) of the last beam formed
-        # W [samples] of :meth:`_delay_and_sum`: the largest receive delay (5), rounded up, + 1.
-        self._window_lag = int(np.ceil(
-            np.linalg.norm(geometry.rx_positions - geometry.rx_origin, axis=1).max()
-            / self.c * band.sample_rate)) + 1
 
     def _matched_filter(self, waveform=None):
         """(filter spectrum on the band (nb,), template energy) of a waveform: conj(W) / E,
@@ -192,232 +98,269 @@ class EchoProcessor:
         energy = self._matched_filter(waveform)[1]
         return 2.0 * self.noise_rms / np.sqrt(energy * self.geometry.rx.count)
 
-    def receive_delays(self, directions) -> np.ndarray:
-        """Plane-wave delays t_j^B(psi) of (5) [s]: (N_rx,) for one direction (3,), (D, N_rx) for
-        (D, 3). Channel j is read at t + t_j^B."""
-        g = self.geometry
-        return -(np.asarray(directions, dtype=float) @ (g.rx_positions - g.rx_origin).T) / self.c
-
-    def _cached(self, recording: Recording, key, compute):
-        """``compute()`` for ``key``, kept while ``recording`` is the last one processed."""
-        if self._recording_cache[0] is not recording:
-            self._recording_cache = (recording, {})
-        cache = self._recording_cache[1]
-        if key not in cache:
-            cache[key] = compute()
-        return cache[key]
-
-    def compressed_spectra(self, recording: Recording, waveform=None) -> np.ndarray:
-        """Matched-filtered analytic spectra of all channels on the band, (N_rx, nb)."""
-        spectra = self._cached(recording, "spectra",
-                               lambda: self.band.band_spectra(recording.samples))
-        return spectra * self._matched_filter(waveform)[0]
-
-    def look(self, recording: Recording, waveform=None) -> tuple[np.ndarray, float]:
-        """(analytic channels (N_rx, N) matched-filtered for ``waveform`` and demodulated at its
-        carrier, carrier [Hz]): one look of the side-lobe check and the arrival direction."""
-        carrier = (self.band.pulse if waveform is None else waveform).frequency
-        return self._cached(recording, ("look", waveform), lambda: (self._demodulated(
-            self.compressed_spectra(recording, waveform), recording.samples.shape[1],
-            recording.start_time, carrier), carrier))
-
-    def beamform(self, spectra: np.ndarray, n_samples: int, direction) -> np.ndarray:
-        """Delay-and-sum of compressed spectra (N_rx, nb) towards ``direction`` (3,): analytic
-        (N,) [Pa]."""
-        key = tuple(np.asarray(direction, dtype=float))
-        if self._steering[0] != key:  # a beam is formed several times (code, tones, blanking)
-            delays = self.receive_delays(direction)
-            self._steering = (key, phasor(2 * np.pi * self.band.frequencies[None, :]
-                                          * delays[:, None]))
-        return self.band.to_analytic((spectra * self._steering[1]).mean(axis=0))[:n_samples]
+    def _envelopes(self, beamformed: np.ndarray, filters: np.ndarray, n: int) -> np.ndarray:
+        """Envelopes (R, n) [Pa] of beamformed spectra on the band (R, nb) matched-filtered by
+        ``filters`` (R, nb): one inverse FFT for all."""
+        return np.abs(self.band.to_analytic(beamformed * filters)[:, :n])
 
     def envelope(self, recording: Recording, direction, waveform=None) -> np.ndarray:
         """Envelope (N,) [Pa] of the beamformed, matched-filtered recording."""
-        n = recording.samples.shape[1]
-        return np.abs(self.beamform(self.compressed_spectra(recording, waveform), n, direction))
+        beamformed = self.beamformer.beamformed(self.band.band_spectra(recording.samples),
+                                                np.reshape(direction, (1, 3)))
+        return self._envelopes(beamformed, self._matched_filter(waveform)[0][None],
+                               recording.samples.shape[-1])[0]
+
+    def noiseless_envelopes(self, spectra: np.ndarray, directions, waveforms=None) -> np.ndarray:
+        """Envelopes (B, n_samples) [Pa] of echoes given by their summed analytic spectra on the
+        band, (N_rx, nb) shared by every beam or (B, N_rx, nb) one per beam (as the synthesizer's
+        ``groups_spectrum`` gives them), towards directions (B, 3), each matched-filtered for its
+        waveform (B,) (default: the pulse): :meth:`envelope` of their noiseless recordings,
+        except that echoes are not cut at the recording's end."""
+        u = np.reshape(directions, (-1, 3))
+        waves = _Waveforms(self, waveforms, len(u))
+        return self._envelopes(self.beamformer.beamformed(spectra, u),
+                               waves.filters[waves.kind], self.band.n_samples)
 
     def noiseless_envelope(self, spectrum: np.ndarray, direction, waveform=None) -> np.ndarray:
-        """Envelope (n_samples,) [Pa] of echoes given by their summed analytic spectrum on the
-        band (N_rx, nb) (as the synthesizer's ``groups_spectrum`` gives them): :meth:`envelope`
-        of their noiseless recording, except that echoes are not cut at the recording's end."""
-        return np.abs(self.beamform(spectrum * self._matched_filter(waveform)[0],
-                                    self.band.n_samples, direction))
-
-    def _demodulated(self, spectra, n: int, start_time: float, carrier: float) -> np.ndarray:
-        """(N_rx, n) analytic channels of compressed ``spectra`` (N_rx, nb) demodulated at
-        ``carrier`` [Hz]; their first sample is at ``start_time`` [s]."""
-        t = start_time + np.arange(n) / self.band.sample_rate
-        # The band's analytic signals are already demodulated by its own carrier.
-        shift = np.exp(-2j * np.pi * (carrier - self.band.carrier) * t)
-        return self.band.to_analytic(spectra)[:, :n] * shift
-
-    def _delay_and_sum(self, directions, carrier: float, fraction: float = 0.0):
-        """Narrow-band delay-and-sum towards directions (D, 3) as a sparse (D, N_rx x L) matrix
-        acting on windows of L = 2 W + 2 samples per channel of channels demodulated at
-        ``carrier`` [Hz] (:meth:`_demodulated`): the window starting W samples before sample k
-        gives the beams at sample k + ``fraction``, each channel read at its delay (5) by linear
-        interpolation and phase-aligned at the carrier. W covers the largest delay."""
-        fs = self.band.sample_rate
-        delays = self.receive_delays(directions)  # (D, N_rx) [s]
-        q = fraction + delays * fs
-        lag = self._window_lag
-        i0 = np.floor(q).astype(np.int64)
-        frac = q - i0
-        n_rx = delays.shape[1]
-        cols = np.arange(n_rx)[None, :] * (2 * lag + 2) + lag + i0
-        phase = phasor(2 * np.pi * carrier * delays)  # < 30 rad: phase error < 2e-6 rad
-        # Built directly in CSR form: row d holds (1 - frac) and frac at columns c, c + 1 per channel.
-        data = np.stack([(1 - frac) * phase, frac * phase], axis=-1).reshape(len(delays), -1)
-        columns = np.stack([cols, cols + 1], axis=-1).reshape(len(delays), -1)
-        return sparse.csr_matrix((data.ravel(), columns.ravel(),
-                                  np.arange(len(delays) + 1) * 2 * n_rx),
-                                 shape=(len(delays), n_rx * (2 * lag + 2)))
-
-    def _windows(self, baseband, samples) -> np.ndarray:
-        """(N_rx x L, C) windows of the channels (N_rx, N) around integer samples (C,) for
-        :meth:`_delay_and_sum` (zeros beyond the recording)."""
-        lag = self._window_lag
-        padded = np.pad(baseband, ((0, 0), (lag + 1, lag + 1)))
-        offsets = np.asarray(samples, dtype=np.int64)[:, None] + np.arange(2 * lag + 2)[None, :] + 1
-        return padded[:, offsets].transpose(0, 2, 1).reshape(-1, len(offsets))
-
-    def _arrives_off_beam(self, looks, candidates, direction) -> np.ndarray:
-        """(C,) True where, at candidate sample k, in any look (baseband, carrier), some receive
-        direction outside the main lobe is ``ghost_margin`` times stronger than the beam."""
-        grid = self._ghost_grid
-        outside = grid @ direction < np.cos(self.settings.ghost_exclusion)
-        off_beam = np.zeros(len(candidates), bool)
-        for baseband, carrier in looks:
-            if carrier not in self._ghost_operators:  # the grid is the same for every beam
-                self._ghost_operators[carrier] = self._delay_and_sum(grid, carrier)
-            windows = self._windows(baseband, candidates)
-            beam = np.abs(self._delay_and_sum(direction[None], carrier) @ windows)[0]
-            ghosts = np.abs(self._ghost_operators[carrier] @ windows)[outside]
-            off_beam |= ghosts.max(axis=0, initial=0.0) > self.settings.ghost_margin * beam
-        return off_beam
-
-    def _arrival_direction(self, looks, sample: float, direction) -> np.ndarray:
-        """Unit vector (3,) of the strongest arrival at (fractional) ``sample`` within
-        ``ghost_exclusion`` of the beam ``direction`` (3,): narrow-band delay-and-sum power summed
-        over the looks on an ``arrival_step`` grid of field-of-view angles, the maximum refined
-        by a parabola along each axis."""
-        s = self.settings
-        h0, v0 = fov_angles(direction)
-        half = int(np.floor(s.ghost_exclusion / s.arrival_step))
-        offsets = np.arange(-half, half + 1) * s.arrival_step
-        hh, vv = np.meshgrid(h0 + offsets, v0 + offsets, indexing="ij")
-        grid = direction_from_fov_angles(hh, vv)  # (G, G, 3)
-        k = int(np.floor(sample))
-        power = sum(np.abs(self._delay_and_sum(grid.reshape(-1, 3), carrier, sample - k)
-                           @ self._windows(baseband, [k]))[:, 0] ** 2 for baseband, carrier in looks)
-        power = np.where(grid.reshape(-1, 3) @ direction >= np.cos(s.ghost_exclusion), power, 0.0)
-        power = power.reshape(hh.shape)
-        i, j = np.unravel_index(int(np.argmax(power)), power.shape)
-        along_h = power[i - 1: i + 2, j] if 0 < i < 2 * half else None
-        along_v = power[i, j - 1: j + 2] if 0 < j < 2 * half else None
-        return direction_from_fov_angles(h0 + offsets[i] + s.arrival_step * _vertex(along_h),
-                                         v0 + offsets[j] + s.arrival_step * _vertex(along_v))
+        """:meth:`noiseless_envelopes` (n_samples,) of one beam, spectrum (N_rx, nb)."""
+        return self.noiseless_envelopes(spectrum, np.reshape(direction, (1, 3)), [waveform])[0]
 
     def process(self, recording: Recording, direction, direct_envelope: np.ndarray | None = None,
                 waveform=None, transmit_time: float = 0.0, max_path_length: float | None = None):
-        """Envelope (N,) [Pa] and :class:`Detection` of one beam from its recording.
+        """Envelope (N,) [Pa] and :class:`Detection` of one beam from its recording:
+        :meth:`process_beams` of B = 1 beam (arguments as there, for that beam)."""
+        envelopes, detections = self.process_beams(
+            recording, np.reshape(direction, (1, 3)),
+            None if direct_envelope is None else np.asarray(direct_envelope)[None], [waveform],
+            transmit_time, max_path_length)
+        return envelopes[0], detections[0]
+
+    def process_beams(self, recordings, directions, direct_envelopes: np.ndarray | None = None,
+                      waveforms=None, transmit_times=0.0,
+                      max_path_length: float | None = None) -> tuple[np.ndarray, Detections]:
+        """Envelopes (B, N) [Pa] and :class:`Detections` of B beams, all in one pass (module
+        docstring).
 
         Args:
-            recording: the per-channel echoes.
-            direction: (3,) beam direction in the sensor frame.
-            direct_envelope: (N,) envelope of the direct path alone, for blanking (optional).
-            waveform: the beam's drive waveform (default: the pulse); selects the matched filter.
-            transmit_time: when the beam was fired, on the recording's clock [s].
+            recordings: one :class:`Recording` shared by every beam (an OFDM cycle), or a
+                sequence of B recordings, one per beam (a scan), all with the same timing.
+            directions: (B, 3) beam directions in the sensor frame.
+            direct_envelopes: (B, N) envelopes of the direct path alone, for blanking (optional).
+            waveforms: the beams' drive waveforms (B,) (default: the pulse for every beam); each
+                selects its matched filter.
+            transmit_times: when each beam was fired, (B,) or one for all, on the recordings'
+                clock [s].
             max_path_length: ignore echoes with a longer path [m] (e.g. the listening window).
         """
-        n = recording.samples.shape[1]
-        u = np.asarray(direction, dtype=float)
-        envelope = np.abs(self.beamform(self.compressed_spectra(recording, waveform), n, u))
-        # Each part of a code is a tone: its own envelope and an exact carrier for the check.
-        parts = getattr(waveform, "parts", ())
-        part_envelopes = [np.abs(self.beamform(self.compressed_spectra(recording, p), n, u))
-                          for p in parts]
+        shared = isinstance(recordings, Recording)
+        start_time = (recordings if shared else recordings[0]).start_time
+        samples = recordings.samples if shared else np.stack([r.samples for r in recordings])
+        u = np.asarray(directions, dtype=float).reshape(-1, 3)
+        n = samples.shape[-1]
+        waves = _Waveforms(self, waveforms, len(u))
+        spectra = self.band.band_spectra(samples)
+        beamformed = self.beamformer.beamformed(spectra, u)
+        # Each part of a code is a tone: its own envelope, and an exact carrier for the looks.
+        beams, look = np.nonzero((waves.looks >= 0) & waves.has_parts[:, None])
+        rows = self._envelopes(np.concatenate([beamformed, beamformed[beams]]),
+                               np.concatenate([waves.filters[waves.kind],
+                                               waves.look_filters[waves.looks[beams, look]]]), n)
+        envelopes, parts = rows[: len(u)], rows[len(u):]
+        weakest, strongest = np.full(envelopes.shape, np.inf), np.zeros(envelopes.shape)
+        np.minimum.at(weakest, beams, parts)
+        np.maximum.at(strongest, beams, parts)
         s = self.settings
-        looks = [self.look(recording, p) for p in (parts or [waveform])] \
-            if s.ghost_margin > 0 or s.arrival_step > 0 else []
-        return envelope, self.detect(envelope, recording.start_time, u, direct_envelope, looks,
-                                     waveform, transmit_time, max_path_length, part_envelopes)
+        looks = _Looks(self, spectra, waves, start_time, n) \
+            if s.ghost_margin > 0 or s.arrival_step > 0 else None
+        return envelopes, self._decide(envelopes, start_time, u, direct_envelopes, waves,
+                                       transmit_times, max_path_length,
+                                       weakest >= s.part_balance * strongest, looks)
 
     def detect(self, envelope: np.ndarray, start_time: float, direction,
-               direct_envelope: np.ndarray | None = None, looks=(),
-               waveform=None, transmit_time: float = 0.0,
-               max_path_length: float | None = None, part_envelopes=()) -> Detection:
-        """Time of arrival, depth and point from an envelope (N,) [Pa], or no detection.
+               direct_envelope: np.ndarray | None = None, waveform=None,
+               transmit_time: float = 0.0, max_path_length: float | None = None) -> Detection:
+        """Time of arrival, depth and point from an envelope (N,) [Pa] alone, or no detection:
+        every candidate is taken to arrive along the beam (the side-lobe check and the arrival
+        direction need the channels: :meth:`process`).
 
         Args:
             envelope: processed envelope.
             start_time: time of its first sample [s].
             direction: (3,) beam direction in the sensor frame.
             direct_envelope: (N,) envelope of the direct path alone, for blanking (optional).
-            looks: (demodulated channels (N_rx, N), carrier [Hz]) pairs (:meth:`look`) for the
-                side-lobe check, which a candidate must pass in every look, and the arrival
-                direction (optional; without them every candidate is taken to arrive along the
-                beam).
             waveform: the beam's drive waveform (sets the noise level).
             transmit_time: when the beam was fired [s]; times of arrival are counted from it.
             max_path_length: ignore echoes with a longer path [m].
-            part_envelopes: envelopes (N,) of the waveform's parts, for the part-balance test.
         """
-        s = self.settings
+        envelopes = np.asarray(envelope)[None]
+        return self._decide(envelopes, start_time, np.reshape(direction, (1, 3)),
+                            None if direct_envelope is None else np.asarray(direct_envelope)[None],
+                            _Waveforms(self, [waveform], 1), transmit_time, max_path_length,
+                            np.ones(envelopes.shape, bool))[0]
+
+    def _decide(self, envelopes, start_time, u, direct_envelopes, waves, transmit_times,
+                max_path_length, balanced, looks=None) -> Detections:
+        """:class:`Detections` of B beams from their envelopes (B, N) [Pa] (arguments as in
+        :meth:`process_beams`; ``balanced`` (B, N): where the parts are balanced). With the
+        beams' looks, the side-lobe check and the arrival direction; without, every candidate
+        is taken to arrive along its beam."""
+        s, g = self.settings, self.geometry
         fs = self.band.sample_rate
-        g = self.geometry
-        u = np.asarray(direction, dtype=float)
-        n = len(envelope)
-        t = start_time + np.arange(n) / fs - transmit_time  # time since this beam's firing
-        cos_b = float(u @ g.rx_origin) / g.baseline
+        count, n = envelopes.shape
+        transmit = np.broadcast_to(np.asarray(transmit_times, dtype=float), (count,))
+        path = self.c * (start_time + np.arange(n) / fs - transmit[:, None])  # since firing [m]
+        cos_b = dot(u, g.rx_origin) / g.baseline
         # Path length of the nearest reportable depth, from (7) solved for l.
         r_min = s.min_range
         l_min = r_min + np.sqrt(r_min**2 + g.baseline**2 - 2 * r_min * g.baseline * cos_b)
-        threshold = np.full(n, max(s.detection_snr * self.noise_envelope_rms(waveform),
-                                   s.detection_floor))
-        if direct_envelope is not None:
-            threshold = np.maximum(threshold, s.blanking_margin * direct_envelope)
-        window = self.c * t >= l_min
+        level = np.maximum(s.detection_snr * waves.noise[waves.kind], s.detection_floor)
+        threshold = np.broadcast_to(level[:, None], envelopes.shape)
+        if direct_envelopes is not None:
+            threshold = np.maximum(threshold, s.blanking_margin * direct_envelopes)
+        window = path >= l_min[:, None]
         if max_path_length is not None:
-            window &= self.c * t <= max_path_length
-        if not np.any(window):
+            window &= path <= max_path_length
+        if not np.all(np.any(window, axis=1)):
             raise ValueError("the recording ends before the minimum range")
-        k_max = int(np.argmax(np.where(window, envelope, -np.inf)))
-        amplitude, level = float(envelope[k_max]), float(threshold[k_max])
-        peaks = np.zeros(n, bool)
-        peaks[1:-1] = (envelope[1:-1] >= envelope[:-2]) & (envelope[1:-1] > envelope[2:])
-        candidates = np.nonzero(peaks & window & (envelope > threshold))[0]
-        if len(part_envelopes):
-            parts = np.asarray(part_envelopes)[:, candidates]
-            candidates = candidates[parts.min(axis=0) >= s.part_balance * parts.max(axis=0)]
-        candidates = candidates[np.argsort(envelope[candidates])[::-1][: s.max_candidates]]
-        nan3 = np.full(3, np.nan)
-        if len(candidates) == 0:
-            return Detection(False, np.nan, np.nan, np.nan, nan3, nan3, amplitude, level)
-        check, locate = s.ghost_margin > 0, s.arrival_step > 0
-        if looks and check:  # a candidate must pass in every look
-            candidates = candidates[~self._arrives_off_beam(looks, candidates, u)][:1]
-        if len(candidates) == 0:
-            return Detection(False, np.nan, np.nan, np.nan, nan3, nan3, amplitude, level)
-        k = int(candidates[0])
-        sample = k + _vertex(envelope[k - 1: k + 2])
-        toa = float(t[0] + sample / fs)
+        every = np.arange(count)
+        k_max = np.argmax(np.where(window, envelopes, -np.inf), axis=1)
+        out = dict(detected=np.zeros(count, bool), time_of_arrival=np.full(count, np.nan),
+                   path_length=np.full(count, np.nan), depth=np.full(count, np.nan),
+                   point=np.full((count, 3), np.nan), direction=np.full((count, 3), np.nan),
+                   amplitude=envelopes[every, k_max], threshold=threshold[every, k_max])
+        beams, samples, ranks = candidates(envelopes, window & (envelopes > threshold) & balanced,
+                                           s.max_candidates)
+        if looks is not None and s.ghost_margin > 0:
+            # Each beam's strongest candidate first; the others where it arrives off the beam.
+            strongest = ranks == 0
+            passed = strongest.copy()
+            passed[strongest] = self._pass_side_lobe_check(looks, u, beams[strongest],
+                                                           samples[strongest])
+            done = np.zeros(count, bool)
+            done[beams[passed]] = True
+            retry = (ranks > 0) & ~done[beams]
+            passed[retry] = self._pass_side_lobe_check(looks, u, beams[retry], samples[retry])
+            beams, samples = beams[passed], samples[passed]
+        found, first = np.unique(beams, return_index=True)  # each beam's strongest left
+        k = samples[first]
+        sample = k + vertex(envelopes[found, k - 1], envelopes[found, k], envelopes[found, k + 1])
+        toa = start_time - transmit[found] + sample / fs
         l = self.c * toa
-        if looks and locate:  # (7) seen from the receive origin
-            arrival = self._arrival_direction(looks, sample, u)
-            receive_range = bistatic_depth(l, g.baseline, -float(arrival @ g.rx_origin) / g.baseline)
-            point = g.rx_origin + receive_range * arrival
+        if looks is not None and s.arrival_step > 0 and len(found):  # (7) from the receive origin
+            look, beam = np.nonzero(waves.looks[found].T >= 0)  # every beam's first look first
+            sets = looks.sets(found[beam], look)
+            arrival = self.beamformer.arrival_directions(
+                looks.channels, sets, waves.carriers[waves.looks[found[beam], look]], beam,
+                sample, u[found])
+            receive_range = bistatic_depth(l, g.baseline, -dot(arrival, g.rx_origin) / g.baseline)
+            point = g.rx_origin + receive_range[:, None] * arrival
         else:
-            arrival, point = u, bistatic_depth(l, g.baseline, cos_b) * u
-        return Detection(True, toa, l, float(np.linalg.norm(point)), point, arrival,
-                         float(envelope[k]), float(threshold[k]))
+            arrival = u[found]
+            point = bistatic_depth(l, g.baseline, cos_b[found])[:, None] * arrival
+        for name, value in (("detected", True), ("time_of_arrival", toa), ("path_length", l),
+                            ("depth", np.linalg.norm(point, axis=-1)), ("point", point),
+                            ("direction", arrival), ("amplitude", envelopes[found, k]),
+                            ("threshold", threshold[found, k])):
+            out[name][found] = value
+        return Detections(**out)
+
+    def _pass_side_lobe_check(self, looks, u, beams, samples) -> np.ndarray:
+        """(E,) True where candidate sample ``samples[e]`` of beam ``beams[e]`` arrives along the
+        beam in every look (:meth:`Beamformer.off_beam
+        <mitsonar.signal.beamforming.Beamformer.off_beam>`), looks checked one after another: a
+        candidate rejected in one is not checked in the next."""
+        table = looks.waves.looks
+        passed = np.ones(len(beams), bool)
+        for look in range(table.shape[1]):
+            todo = np.flatnonzero(passed & (table[beams, look] >= 0))
+            if len(todo):
+                b = beams[todo]
+                sets = looks.sets(b, look)
+                passed[todo] = ~self.beamformer.off_beam(looks.channels, sets, samples[todo],
+                                                         looks.waves.carriers[table[b, look]],
+                                                         u[b])
+        return passed
 
 
-def _vertex(values) -> float:
-    """Offset [samples] of the vertex of the parabola through three equally spaced values (3,)
-    from the middle one; 0 for None or where they do not peak in the middle."""
-    if values is None:
-        return 0.0
-    y0, y1, y2 = values
-    denom = y0 - 2 * y1 + y2
-    return float(0.5 * (y0 - y2) / denom) if denom < 0 else 0.0
+class _Looks:
+    """The looks of B beams for the side-lobe check and the arrival direction: channels
+    (N_rx, N) matched-filtered for a look waveform (a code's part, or the waveform itself) and
+    demodulated at its carrier; each distinct (recording, look waveform) computed once, when
+    first asked for.
+
+    Args:
+        processor: the receiver.
+        spectra: channel spectra on the band, (N_rx, nb) shared or (B, N_rx, nb) per beam.
+        waves: the beams' waveforms.
+        start_time: time of sample 0 [s].
+        n: samples per channel.
+    """
+
+    def __init__(self, processor: EchoProcessor, spectra: np.ndarray, waves: _Waveforms,
+                 start_time: float, n: int):
+        self.band = processor.band
+        self.waves = waves
+        self.per_beam = spectra.ndim == 3
+        self.spectra = spectra.reshape((-1,) + spectra.shape[-2:])
+        #: (sets, N_rx, n): set r x T + t is recording r's look waveform t (T of them); filled
+        #: when first asked for by :meth:`sets`.
+        self.channels = np.empty((len(self.spectra) * len(waves.carriers),) + spectra.shape[-2:-1]
+                                 + (n,), dtype=complex)
+        self._ready = np.zeros(len(self.channels), bool)
+        self._times = start_time + np.arange(n) / self.band.sample_rate
+
+    def sets(self, beams, look) -> np.ndarray:
+        """Sets (E,) in :attr:`channels` of looks ``look`` ((E,) or one for all) of ``beams``
+        (E,), computed where new: one inverse FFT for all of them."""
+        n_looks = len(self.waves.carriers)
+        keys = (beams if self.per_beam else 0) * n_looks + self.waves.looks[beams, look]
+        new = np.unique(keys[~self._ready[keys]])
+        if len(new):
+            recording, waveform = np.divmod(new, n_looks)
+            # The band's analytic signals are already demodulated by its own carrier.
+            offset = (self.waves.carriers[waveform] - self.band.carrier)[:, None]  # [Hz]
+            shift = np.exp(-2j * np.pi * offset * self._times)
+            analytic = self.band.to_analytic(self.spectra[recording]
+                                             * self.waves.look_filters[waveform][:, None])
+            self.channels[new] = analytic[..., : len(self._times)] * shift[:, None, :]
+            self._ready[new] = True
+        return keys
+
+
+class _Waveforms:
+    """The drive waveforms of B beams, by kind (distinct waveform): matched filters (K, nb) and
+    noise envelope levels (K,) [Pa]; and their looks (the parts of a code, or the waveform
+    itself): matched filters (T, nb) and carriers (T,) [Hz].
+
+    Attributes:
+        kind: (B,) each beam's kind.
+        looks: (B, P) each beam's looks (-1: none).
+        has_parts: (B,) whether a beam's looks are parts of its waveform (with envelopes of their
+            own, for the part balance).
+    """
+
+    def __init__(self, processor: EchoProcessor, waveforms, count: int):
+        pulse = processor.band.pulse
+        if waveforms is None:
+            kinds, self.kind = [pulse], np.zeros(count, np.int64)
+        else:
+            kinds, self.kind = _distinct([pulse if w is None else w for w in waveforms])
+        self.filters = np.stack([processor._matched_filter(w)[0] for w in kinds])
+        self.noise = np.array([processor.noise_envelope_rms(w) for w in kinds])
+        parts = [tuple(getattr(w, "parts", ())) for w in kinds]
+        looks = [p or (w,) for p, w in zip(parts, kinds)]
+        tones = list(dict.fromkeys(t for look in looks for t in look))
+        table = np.full((len(kinds), max(map(len, looks))), -1)
+        for k, look in enumerate(looks):
+            table[k, : len(look)] = [tones.index(t) for t in look]
+        self.looks = table[self.kind]
+        self.has_parts = np.array([len(p) > 0 for p in parts])[self.kind]
+        self.look_filters = np.stack([processor._matched_filter(t)[0] for t in tones])
+        self.carriers = np.array([float(t.frequency) for t in tones])
+
+
+def _distinct(items) -> tuple[list, np.ndarray]:
+    """(the distinct items in order of first appearance, index (len(items),) of each among them)."""
+    index: dict = {}
+    which = np.array([index.setdefault(w, len(index)) for w in items], np.int64)
+    return list(index), which

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 import mitsonar
-from mitsonar.signal.receiver import bistatic_depth
+from mitsonar.signal.detection import bistatic_depth
 from mitsonar.trace.paths import Paths
 from helpers import BROADSIDE, IDENTITY
 from mitsonar.scene.xml import material_xml, rectangle_xml, write_scene

@@ -1,0 +1,185 @@
+"""Delay-and-sum (5) of the receive array, for many beams at once.
+
+* On the signal band: the plane-wave delays t_j^B(psi) = -(p_j - o_R) . u / c relative to the
+  receive origin o_R, applied exactly as phase ramps exp(j 2 pi f t_j^B) to the channels' spectra
+  (fractional delays without interpolation error).
+* Narrow band, on short windows of channels demodulated at a carrier: each channel read at its
+  delay by linear interpolation and phase-aligned at the carrier, as a sparse operator acting on
+  the windows. This is what the side-lobe check and the arrival direction of
+  :mod:`mitsonar.signal.receiver` read at the instants of the candidates: one sparse product for
+  every window of a carrier.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy import sparse
+
+from mitsonar.frames import direction_from_fov_angles, fov_angles
+from mitsonar.physics.array import ArrayGeometry
+from mitsonar.physics.waveforms import phasor
+from mitsonar.signal.band import Band
+from mitsonar.signal.detection import DetectionSettings, vertex
+
+
+def dot(a, b) -> np.ndarray:
+    """Dot products over the last axis of broadcast arrays, summed term by term: a pair of
+    vectors gets the same value whatever the batch around it (a BLAS kernel may not)."""
+    return (np.asarray(a) * np.asarray(b)).sum(axis=-1)
+
+
+class Beamformer:
+    """Delay-and-sum towards directions: steering phasors on the band and narrow-band operators
+    on windows; built once per sensor configuration.
+
+    Args:
+        geometry: the arrays.
+        band: the recordings' band (its frequencies and sample rate).
+        speed_of_sound: c [m/s].
+        settings: the side-lobe check's grid and main lobe, the arrival-direction step.
+    """
+
+    def __init__(self, geometry: ArrayGeometry, band: Band, speed_of_sound: float,
+                 settings: DetectionSettings):
+        self.band = band
+        self.c = float(speed_of_sound)
+        self.settings = settings
+        self._offsets = geometry.rx_positions - geometry.rx_origin  # (N_rx, 3) [m]
+        #: W [samples] of the windows: the largest receive delay (5), rounded up, + 1.
+        self.window_lag = int(np.ceil(np.linalg.norm(self._offsets, axis=1).max() / self.c
+                                      * band.sample_rate)) + 1
+        # Side-lobe check: a ``ghost_grid_step`` grid over +-``ghost_half_span`` in both
+        # field-of-view angles, the same for every beam, and its delay-and-sum per carrier [Hz].
+        h = np.arange(-settings.ghost_half_span, settings.ghost_half_span + 1e-9,
+                      settings.ghost_grid_step)
+        hh, vv = np.meshgrid(h, h, indexing="ij")
+        self.ghost_grid = direction_from_fov_angles(hh, vv).reshape(-1, 3)
+        self._ghost_operators = {}
+        self._steering = (None, None)  # (directions, phasors) last formed
+
+    def receive_delays(self, directions) -> np.ndarray:
+        """Plane-wave delays t_j^B(psi) of (5) [s], (..., N_rx) for directions (..., 3): channel
+        j is read at t + t_j^B."""
+        return -dot(np.asarray(directions, dtype=float)[..., None, :], self._offsets) / self.c
+
+    def steering(self, directions) -> np.ndarray:
+        """Phasors exp(j 2 pi f t_j^B) (B, N_rx, nb) at the band's frequencies f for directions
+        (B, 3) (complex64, :func:`~mitsonar.physics.waveforms.phasor`); kept for the last
+        directions (the beams of a cycle are formed for their codes and for blanking)."""
+        directions = np.ascontiguousarray(directions, dtype=float)
+        key = directions.tobytes()
+        if self._steering[0] != key:
+            self._steering = (key, phasor(2 * np.pi * self.band.frequencies
+                                          * self.receive_delays(directions)[..., None]))
+        return self._steering[1]
+
+    def beamformed(self, spectra: np.ndarray, directions) -> np.ndarray:
+        """Delay-and-sum (B, nb) of channel spectra on the band, (N_rx, nb) shared by all beams
+        or (B, N_rx, nb) one set per beam, towards directions (B, 3)."""
+        return (spectra * self.steering(directions)).mean(axis=-2)
+
+    def operator(self, directions, carriers, fractions=0.0, blocks=None) -> sparse.csr_matrix:
+        """Narrow-band delay-and-sum towards directions (R, 3) as a sparse matrix acting on
+        windows of L = 2 W + 2 samples per channel (:meth:`windows`), one row per direction.
+
+        Row r reads block ``blocks[r]`` (default 0) of the stacked windows, a column of N_rx x L
+        numbers: channels demodulated at ``carriers[r]`` [Hz] ((R,) or a scalar) whose window
+        starts W samples before sample k; it gives the beam at sample k + ``fractions[r]``
+        ((R,) or a scalar), each channel read at its delay (5) by linear interpolation and
+        phase-aligned at the carrier. W covers the largest delay. Shape (R, n_blocks N_rx L).
+        """
+        fs = self.band.sample_rate
+        delays = self.receive_delays(directions)  # (R, N_rx) [s]
+        rows, n_rx = delays.shape
+        q = np.reshape(fractions, (-1, 1)) + delays * fs
+        length = 2 * self.window_lag + 2
+        i0 = np.floor(q).astype(np.int64)
+        frac = q - i0
+        blocks = np.zeros(rows, np.int64) if blocks is None else np.asarray(blocks, np.int64)
+        cols = (np.arange(n_rx) * length + self.window_lag)[None, :] + i0 \
+            + (blocks * n_rx * length)[:, None]
+        # < 30 rad: phase error < 2e-6 rad
+        phase = phasor(2 * np.pi * np.reshape(carriers, (-1, 1)) * delays)
+        # Built directly in CSR form: row r holds (1 - frac) and frac at columns c, c + 1 per
+        # channel.
+        data = np.stack([(1 - frac) * phase, frac * phase], axis=-1).reshape(rows, -1)
+        columns = np.stack([cols, cols + 1], axis=-1).reshape(rows, -1)
+        n_blocks = int(blocks.max(initial=0)) + 1
+        return sparse.csr_matrix((data.ravel(), columns.ravel(), np.arange(rows + 1) * 2 * n_rx),
+                                 shape=(rows, n_blocks * n_rx * length))
+
+    def windows(self, channels: np.ndarray, sets, samples) -> np.ndarray:
+        """(N_rx x L, E) windows for :meth:`operator`: column e holds channel set ``sets[e]`` of
+        ``channels`` (S, N_rx, N) from W samples before integer sample ``samples[e]`` (zeros
+        beyond the recording)."""
+        n = channels.shape[-1]
+        index = np.asarray(samples, np.int64)[:, None] \
+            + np.arange(-self.window_lag, self.window_lag + 2)  # (E, L)
+        picked = channels[np.asarray(sets)[:, None, None],
+                          np.arange(channels.shape[1])[None, :, None],
+                          np.clip(index, 0, n - 1)[:, None, :]]  # (E, N_rx, L)
+        picked = np.where(((index >= 0) & (index < n))[:, None, :], picked, 0)
+        return picked.transpose(1, 2, 0).reshape(-1, len(index))
+
+    def off_beam(self, channels: np.ndarray, sets, samples, carriers, directions) -> np.ndarray:
+        """Side-lobe check of E windows: (E,) True where, at integer sample ``samples[e]`` of
+        channel set ``sets[e]`` of ``channels`` (S, N_rx, N) demodulated at ``carriers[e]``
+        [Hz], some direction of the ghost grid outside the main lobe of ``directions[e]`` (E, 3)
+        is ``ghost_margin`` times stronger than that direction. One sparse product per carrier."""
+        s = self.settings
+        directions = np.asarray(directions, dtype=float)
+        carriers = np.asarray(carriers, dtype=float)
+        windows = self.windows(channels, sets, samples)  # (N_rx L, E)
+        entries = np.arange(len(carriers))
+        beam = np.abs(self.operator(directions, carriers, blocks=entries)
+                      @ windows.T.ravel())
+        off = np.zeros(len(carriers), bool)
+        for carrier in np.unique(carriers):
+            mine = entries[carriers == carrier]
+            if carrier not in self._ghost_operators:  # the grid is the same for every beam
+                self._ghost_operators[carrier] = self.operator(self.ghost_grid, carrier)
+            ghosts = np.abs(self._ghost_operators[carrier] @ windows[:, mine])  # (G, E_c)
+            outside = dot(self.ghost_grid[:, None, :], directions[mine]) \
+                < np.cos(s.ghost_exclusion)
+            off[mine] = np.where(outside, ghosts, 0.0).max(axis=0) > s.ghost_margin * beam[mine]
+        return off
+
+    def arrival_directions(self, channels: np.ndarray, sets, carriers, beams, samples,
+                           directions) -> np.ndarray:
+        """Unit vectors (D, 3) of the strongest arrivals at (fractional) ``samples`` (D,) within
+        ``ghost_exclusion`` of the beam ``directions`` (D, 3): narrow-band delay-and-sum power
+        on an ``arrival_step`` grid of field-of-view angles around each beam, the maximum refined
+        by a parabola along each axis. Beam ``beams[e]`` sums the power of its looks e: channel
+        set ``sets[e]`` of ``channels`` (S, N_rx, N) demodulated at ``carriers[e]`` [Hz] (E,),
+        in the order given. One sparse product for all."""
+        s = self.settings
+        directions = np.asarray(directions, dtype=float)
+        beams = np.asarray(beams, np.int64)
+        h0, v0 = fov_angles(directions)
+        half = int(np.floor(s.ghost_exclusion / s.arrival_step))
+        offsets = np.arange(-half, half + 1) * s.arrival_step
+        side = len(offsets)
+        grid = direction_from_fov_angles((h0[:, None] + offsets)[:, :, None],
+                                         (v0[:, None] + offsets)[:, None, :])  # (D, G, G, 3)
+        grid = grid.reshape(len(directions), side * side, 3)
+        k = np.floor(samples).astype(np.int64)
+        fractions = samples - k
+        operator = self.operator(grid[beams].reshape(-1, 3), np.repeat(carriers, side * side),
+                                 np.repeat(fractions[beams], side * side),
+                                 np.repeat(np.arange(len(beams)), side * side))
+        looks = np.abs(operator @ self.windows(channels, sets, k[beams]).T.ravel()) ** 2
+        power = np.zeros(grid.shape[:2])
+        np.add.at(power, beams, looks.reshape(len(beams), -1))
+        power = np.where(dot(grid, directions[:, None, :]) >= np.cos(s.ghost_exclusion), power, 0.0)
+        best = np.argmax(power, axis=1)
+        i, j = np.divmod(best, side)
+        # Zero-padded around the grid: a maximum on its edge has no parabola (vertex 0).
+        power = np.pad(power.reshape(-1, side, side), ((0, 0), (1, 1), (1, 1)))
+        d = np.arange(len(directions))
+        peak = power[d, i + 1, j + 1]
+        along_h = np.where((0 < i) & (i < side - 1),
+                           vertex(power[d, i, j + 1], peak, power[d, i + 2, j + 1]), 0.0)
+        along_v = np.where((0 < j) & (j < side - 1),
+                           vertex(power[d, i + 1, j], peak, power[d, i + 1, j + 2]), 0.0)
+        return direction_from_fov_angles(h0 + offsets[i] + s.arrival_step * along_h,
+                                         v0 + offsets[j] + s.arrival_step * along_v)

@@ -1,0 +1,148 @@
+"""Detection decisions of the receiver: settings, results, envelope peaks, bistatic depth (7).
+
+What the decisions are and why: :mod:`mitsonar.signal.receiver`. Everything here works on B
+beams at once, as arrays with a leading beam axis.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from mitsonar.validation import check_positive
+
+
+@dataclass(frozen=True)
+class DetectionSettings:
+    """Receiver decision parameters.
+
+    Attributes:
+        detection_snr: threshold over the RMS noise envelope (5 gives a false-alarm probability
+            of exp(-25) per sample).
+        detection_floor: absolute threshold on the envelope [Pa] (matters without noise).
+        blanking_margin: factor over the direct-path envelope a detection must exceed.
+        min_range: nearest depth reported [m].
+        ghost_margin: factor by which an off-beam receive direction must beat the beam for a
+            candidate to be rejected as a side-lobe arrival (0 disables the check).
+        ghost_exclusion: half-angle around the beam treated as its main lobe [rad].
+        ghost_grid_step: spacing of the receive directions checked [rad].
+        ghost_half_span: the checked directions cover +-this horizontally and vertically [rad]
+            (wider than the field of view: side-lobe echoes come from anywhere in front).
+        max_candidates: envelope peaks examined, strongest first.
+        part_balance: for waveforms with ``parts``, the weakest part's envelope over the
+            strongest's that a candidate needs (in (0, 1]; an echo carries both equally).
+        arrival_step: grid step of the arrival-direction estimate within the main lobe [rad]
+            (:mod:`mitsonar.signal.receiver`; 0: every point on the beam axis, as the paper).
+    """
+
+    detection_snr: float = 5.0
+    detection_floor: float = 1e-3
+    blanking_margin: float = 2.0
+    min_range: float = 0.2
+    ghost_margin: float = 1.2
+    ghost_exclusion: float = np.radians(6.0)
+    ghost_grid_step: float = np.radians(2.0)
+    ghost_half_span: float = np.radians(50.0)
+    max_candidates: int = 8
+    part_balance: float = 0.3
+    arrival_step: float = np.radians(0.5)
+
+    def __post_init__(self):
+        for name in ("detection_snr", "detection_floor", "blanking_margin", "min_range",
+                     "ghost_exclusion", "ghost_grid_step", "ghost_half_span"):
+            check_positive(f"DetectionSettings.{name}", getattr(self, name))
+        if not (np.isfinite(self.ghost_margin) and self.ghost_margin >= 0):
+            raise ValueError(f"DetectionSettings.ghost_margin must be >= 0, "
+                             f"got {self.ghost_margin}")
+        if not (np.isfinite(self.arrival_step) and self.arrival_step >= 0):
+            raise ValueError(f"DetectionSettings.arrival_step [rad] must be >= 0, "
+                             f"got {self.arrival_step}")
+        if not 0 < self.part_balance <= 1:
+            raise ValueError(f"DetectionSettings.part_balance must be in (0, 1], "
+                             f"got {self.part_balance}")
+        if int(self.max_candidates) != self.max_candidates or self.max_candidates < 1:
+            raise ValueError(f"DetectionSettings.max_candidates must be an integer >= 1, "
+                             f"got {self.max_candidates}")
+
+
+@dataclass(frozen=True)
+class Detection:
+    """Result of processing one beam.
+
+    Attributes:
+        detected: True when an echo passed every test.
+        time_of_arrival: [s] from the virtual firing of the transmit origin (NaN if none).
+        path_length: l = c * time_of_arrival [m] (NaN if none).
+        depth: distance of the point from the transmit origin, (7) [m] (NaN if none); along the
+            beam unless the arrival direction is estimated.
+        point: (3,) reflector in the sensor frame [m] (NaN if none).
+        direction: (3,) unit vector the echo arrived from, the beam's own direction without an
+            arrival-direction estimate (NaN if none).
+        amplitude: strongest envelope value beyond the minimum range [Pa] (finite even when not
+            detected: what the receiver saw).
+        threshold: envelope level that amplitude had to exceed there [Pa].
+    """
+
+    detected: bool
+    time_of_arrival: float
+    path_length: float
+    depth: float
+    point: np.ndarray
+    direction: np.ndarray
+    amplitude: float
+    threshold: float
+
+
+@dataclass(frozen=True)
+class Detections:
+    """Results of processing B beams: the fields of :class:`Detection` stacked along a leading
+    beam axis, (B,) or (B, 3); ``detections[b]`` is beam b's :class:`Detection`."""
+
+    detected: np.ndarray
+    time_of_arrival: np.ndarray
+    path_length: np.ndarray
+    depth: np.ndarray
+    point: np.ndarray
+    direction: np.ndarray
+    amplitude: np.ndarray
+    threshold: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.detected)
+
+    def __getitem__(self, b: int) -> Detection:
+        return Detection(bool(self.detected[b]), float(self.time_of_arrival[b]),
+                         float(self.path_length[b]), float(self.depth[b]), self.point[b].copy(),
+                         self.direction[b].copy(), float(self.amplitude[b]),
+                         float(self.threshold[b]))
+
+
+def bistatic_depth(path_length, baseline: float, cos_beam_baseline) -> np.ndarray:
+    """Equation (7): depth [m] from path length l [m], baseline b [m] and cos(theta_b)."""
+    l = np.asarray(path_length, dtype=float)
+    return (l**2 - baseline**2) / (2.0 * (l - baseline * np.asarray(cos_beam_baseline)))
+
+
+def vertex(y0, y1, y2) -> np.ndarray:
+    """Offsets [samples] of the vertices of the parabolas through equally spaced values y0, y1,
+    y2 (broadcast arrays) from the middle ones; 0 where they do not peak in the middle."""
+    y0, y1, y2 = np.broadcast_arrays(*(np.asarray(y, dtype=float) for y in (y0, y1, y2)))
+    denom = y0 - 2 * y1 + y2
+    return np.divide(0.5 * (y0 - y2), denom, out=np.zeros(denom.shape), where=denom < 0)
+
+
+def candidates(envelopes: np.ndarray, accepted: np.ndarray, max_candidates: int):
+    """Envelope peaks worth examining: local maxima (B, N) of ``envelopes`` where ``accepted``
+    (B, N) (above threshold, inside the window, parts balanced), strongest first, at most
+    ``max_candidates`` per beam. Returns (beam, sample, rank) arrays, sorted by beam then rank
+    (0: the beam's strongest)."""
+    e = envelopes
+    peaks = np.zeros(e.shape, bool)
+    peaks[:, 1:-1] = (e[:, 1:-1] >= e[:, :-2]) & (e[:, 1:-1] > e[:, 2:])
+    beams, samples = np.nonzero(peaks & accepted)
+    order = np.lexsort((-e[beams, samples], beams))
+    beams, samples = beams[order], samples[order]
+    ranks = np.arange(len(beams)) - np.searchsorted(beams, beams)
+    keep = ranks < max_candidates
+    return beams[keep], samples[keep], ranks[keep]
