@@ -308,7 +308,9 @@ class Sonar:
 
         Beam b uses seed ``[seed, b]`` and gives the same ping as :meth:`ping` with that seed;
         beams are traced ``TRACE_BATCH`` at a time (:meth:`AcousticTracer.trace_many
-        <mitsonar.trace.tracer.AcousticTracer.trace_many>`).
+        <mitsonar.trace.tracer.AcousticTracer.trace_many>`) and each batch's recordings decoded
+        together (:meth:`EchoProcessor.process_beams
+        <mitsonar.signal.receiver.EchoProcessor.process_beams>`).
         """
         dirs = np.asarray(directions, dtype=float).reshape(-1, 3)
         self.config.geometry.check_in_fov(dirs)

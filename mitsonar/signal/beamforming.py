@@ -23,9 +23,10 @@ from mitsonar.signal.detection import DetectionSettings, vertex
 
 
 def dot(a, b) -> np.ndarray:
-    """Dot products over the last axis of broadcast arrays, summed term by term: a pair of
-    vectors gets the same value whatever the batch around it (a BLAS kernel may not)."""
-    return (np.asarray(a) * np.asarray(b)).sum(axis=-1)
+    """Dot products of 3-vectors (..., 3), broadcast, summed term by term: a pair of vectors gets
+    the same value whatever the batch around it (a BLAS kernel may not)."""
+    a, b = np.asarray(a), np.asarray(b)
+    return a[..., 0] * b[..., 0] + a[..., 1] * b[..., 1] + a[..., 2] * b[..., 2]
 
 
 class Beamformer:
@@ -54,7 +55,9 @@ class Beamformer:
                       settings.ghost_grid_step)
         hh, vv = np.meshgrid(h, h, indexing="ij")
         self.ghost_grid = direction_from_fov_angles(hh, vv).reshape(-1, 3)
-        self._ghost_operators = {}
+        # Its every third direction along each axis, checked first (:meth:`off_beam`).
+        self._coarse = np.arange(len(self.ghost_grid)).reshape(len(h), len(h))[::3, ::3].ravel()
+        self._ghost_operators = {}  # (carrier [Hz], coarse) -> operator
         self._steering = (None, None)  # (directions, phasors) last formed
 
     def receive_delays(self, directions) -> np.ndarray:
@@ -125,7 +128,11 @@ class Beamformer:
         """Side-lobe check of E windows: (E,) True where, at integer sample ``samples[e]`` of
         channel set ``sets[e]`` of ``channels`` (S, N_rx, N) demodulated at ``carriers[e]``
         [Hz], some direction of the ghost grid outside the main lobe of ``directions[e]`` (E, 3)
-        is ``ghost_margin`` times stronger than that direction. One sparse product per carrier."""
+        is ``ghost_margin`` times stronger than that direction. Every third direction of the grid
+        along each axis is tried first, the whole grid only where none of them is (the same
+        decisions, a ninth of the work for most rejections: on room_glass's OFDM frame the
+        coarse grid finds 703 of 705). A sparse product per carrier for each.
+        """
         s = self.settings
         directions = np.asarray(directions, dtype=float)
         carriers = np.asarray(carriers, dtype=float)
@@ -134,14 +141,16 @@ class Beamformer:
         beam = np.abs(self.operator(directions, carriers, blocks=entries)
                       @ windows.T.ravel())
         off = np.zeros(len(carriers), bool)
-        for carrier in np.unique(carriers):
-            mine = entries[carriers == carrier]
-            if carrier not in self._ghost_operators:  # the grid is the same for every beam
-                self._ghost_operators[carrier] = self.operator(self.ghost_grid, carrier)
-            ghosts = np.abs(self._ghost_operators[carrier] @ windows[:, mine])  # (G, E_c)
-            outside = dot(self.ghost_grid[:, None, :], directions[mine]) \
-                < np.cos(s.ghost_exclusion)
-            off[mine] = np.where(outside, ghosts, 0.0).max(axis=0) > s.ghost_margin * beam[mine]
+        for coarse in (True, False):
+            grid = self.ghost_grid[self._coarse] if coarse else self.ghost_grid
+            for carrier in np.unique(carriers[~off]):
+                mine = entries[(carriers == carrier) & ~off]
+                if (carrier, coarse) not in self._ghost_operators:  # the same for every beam
+                    self._ghost_operators[carrier, coarse] = self.operator(grid, carrier)
+                ghosts = np.abs(self._ghost_operators[carrier, coarse] @ windows[:, mine])
+                outside = dot(grid[:, None, :], directions[mine]) < np.cos(s.ghost_exclusion)
+                off[mine] = np.where(outside, ghosts, 0.0).max(axis=0) \
+                    > s.ghost_margin * beam[mine]
         return off
 
     def arrival_directions(self, channels: np.ndarray, sets, carriers, beams, samples,

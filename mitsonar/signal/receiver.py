@@ -165,16 +165,17 @@ class EchoProcessor:
         rows = self._envelopes(np.concatenate([beamformed, beamformed[beams]]),
                                np.concatenate([waves.filters[waves.kind],
                                                waves.look_filters[waves.looks[beams, look]]]), n)
-        envelopes, parts = rows[: len(u)], rows[len(u):]
-        weakest, strongest = np.full(envelopes.shape, np.inf), np.zeros(envelopes.shape)
-        np.minimum.at(weakest, beams, parts)
-        np.maximum.at(strongest, beams, parts)
+        envelopes = rows[: len(u)]
+        # Part envelopes (B, P, N) for the part balance; a beam without parts passes (inf >= 0).
+        weakest = np.full(waves.looks.shape + (n,), np.inf)
+        strongest = np.zeros(weakest.shape)
+        weakest[beams, look] = strongest[beams, look] = rows[len(u):]
         s = self.settings
+        balanced = weakest.min(axis=1) >= s.part_balance * strongest.max(axis=1)
         looks = _Looks(self, spectra, waves, start_time, n) \
             if s.ghost_margin > 0 or s.arrival_step > 0 else None
         return envelopes, self._decide(envelopes, start_time, u, direct_envelopes, waves,
-                                       transmit_times, max_path_length,
-                                       weakest >= s.part_balance * strongest, looks)
+                                       transmit_times, max_path_length, balanced, looks)
 
     def detect(self, envelope: np.ndarray, start_time: float, direction,
                direct_envelope: np.ndarray | None = None, waveform=None,
