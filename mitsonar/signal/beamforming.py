@@ -72,14 +72,22 @@ class Beamformer:
         directions = np.ascontiguousarray(directions, dtype=float)
         key = directions.tobytes()
         if self._steering[0] != key:
-            self._steering = (key, phasor(2 * np.pi * self.band.frequencies
-                                          * self.receive_delays(directions)[..., None]))
+            delays = self.receive_delays(directions)  # (B, N_rx) [s]
+            phasors = np.empty(delays.shape + self.band.frequencies.shape, np.complex64)
+            for j in range(delays.shape[1]):  # a channel at a time: small temporaries
+                phasors[:, j] = phasor(2 * np.pi * self.band.frequencies * delays[:, j, None])
+            self._steering = (key, phasors)
         return self._steering[1]
 
     def beamformed(self, spectra: np.ndarray, directions) -> np.ndarray:
         """Delay-and-sum (B, nb) of channel spectra on the band, (N_rx, nb) shared by all beams
-        or (B, N_rx, nb) one set per beam, towards directions (B, 3)."""
-        return (spectra * self.steering(directions)).mean(axis=-2)
+        or (B, N_rx, nb) one set per beam, towards directions (B, 3): summed channel by channel
+        (no (B, N_rx, nb) product held at once)."""
+        steering = self.steering(directions)
+        total = spectra[..., 0, :] * steering[:, 0]
+        for j in range(1, steering.shape[1]):
+            total += spectra[..., j, :] * steering[:, j]
+        return total / steering.shape[1]
 
     def operator(self, directions, carriers, fractions=0.0, blocks=None) -> sparse.csr_matrix:
         """Narrow-band delay-and-sum towards directions (R, 3) as a sparse matrix acting on

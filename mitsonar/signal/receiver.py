@@ -61,6 +61,10 @@ from mitsonar.signal.beamforming import Beamformer, dot
 from mitsonar.signal.detection import (Detection, Detections, DetectionSettings, bistatic_depth,
                                        candidates, vertex)
 
+#: Channel sets of the looks transformed together (bounds the memory of an OFDM cycle's looks:
+#: ~10 MB per set of 25 channels).
+LOOK_BATCH = 4
+
 
 class EchoProcessor:
     """Turns recordings into detections; built once per sensor configuration and reused.
@@ -312,19 +316,20 @@ class _Looks:
 
     def sets(self, beams, look) -> np.ndarray:
         """Sets (E,) in :attr:`channels` of looks ``look`` ((E,) or one for all) of ``beams``
-        (E,), computed where new: one inverse FFT for all of them."""
+        (E,), computed where new: an inverse FFT for every ``LOOK_BATCH`` of them."""
         n_looks = len(self.waves.carriers)
         keys = (beams if self.per_beam else 0) * n_looks + self.waves.looks[beams, look]
         new = np.unique(keys[~self._ready[keys]])
-        if len(new):
-            recording, waveform = np.divmod(new, n_looks)
+        for first in range(0, len(new), LOOK_BATCH):
+            batch = new[first: first + LOOK_BATCH]
+            recording, waveform = np.divmod(batch, n_looks)
             # The band's analytic signals are already demodulated by its own carrier.
             offset = (self.waves.carriers[waveform] - self.band.carrier)[:, None]  # [Hz]
             shift = np.exp(-2j * np.pi * offset * self._times)
             analytic = self.band.to_analytic(self.spectra[recording]
                                              * self.waves.look_filters[waveform][:, None])
-            self.channels[new] = analytic[..., : len(self._times)] * shift[:, None, :]
-            self._ready[new] = True
+            self.channels[batch] = analytic[..., : len(self._times)] * shift[:, None, :]
+            self._ready[batch] = True
         return keys
 
 
