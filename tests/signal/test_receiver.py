@@ -84,3 +84,16 @@ def test_an_ofdm_cycle_decoded_together_equals_its_beams_decoded_one_by_one(targ
     np.testing.assert_allclose(envelopes, [env for env, _ in alone], rtol=0,
                                atol=1e-12 * envelopes.max())
     _assert_same({name: getattr(together, name) for name in FIELDS}, [det for _, det in alone])
+
+
+def test_code_crosstalk_is_measured_only_when_asked_for(targets):
+    """OfdmSonar.frame(crosstalk=False) keeps no per-beam echo spectra: the same decisions and
+    depths, no cross-talk figure."""
+    sonar, directions = targets
+    ofdm = OfdmSonar(sonar)
+    schedule = ofdm.schedule(directions)
+    asked = ofdm.frame(schedule, lambda t: IDENTITY, seed=4)
+    not_asked = ofdm.frame(schedule, lambda t: IDENTITY, seed=4, crosstalk=False)
+    np.testing.assert_array_equal(not_asked.depth, asked.depth)
+    assert np.isfinite(asked.crosstalk_db[asked.detected]).all() and asked.detected.any()
+    assert np.isnan(not_asked.crosstalk_db).all()
