@@ -136,8 +136,9 @@ class OfdmSonar:
                                    seed=_seed(seed, int(beams[0]), _NOISE_STREAM))
         processor = self.processor
         blank = processor.noiseless_envelopes(direct_total, directions, codes)
+        max_path = 2.0 * sonar.config.max_range  # the listening window of every code
         _, det = processor.process_beams(rec, directions, blank, codes, transmit_times=offsets,
-                                         max_path_length=2.0 * sonar.config.max_range)
+                                         max_path_length=max_path)
         leaks = np.full(len(beams), np.nan)
         if crosstalk and det.detected.any():  # what the other beams (and direct paths) leave
             found = np.flatnonzero(det.detected)
