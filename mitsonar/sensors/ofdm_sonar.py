@@ -78,7 +78,7 @@ class OfdmSonar:
         return Schedule.build(directions, self.codes, self.listen)
 
     def frame(self, schedule: Schedule, pose_at, start_time: float = 0.0, seed: int = 0,
-              crosstalk: bool = True) -> Frame:
+              crosstalk: bool = False) -> Frame:
         """Simulate and decode one frame.
 
         Args:
@@ -86,8 +86,8 @@ class OfdmSonar:
             pose_at: function time [s] -> world-from-sensor :class:`Pose` (the robot's motion).
             start_time: frame start on ``pose_at``'s clock [s].
             seed: seeds noise and diffuse phases (same seed, same frame).
-            crosstalk: measure the codes' cross-talk (``Frame.crosstalk_db``; keeps every beam's
-                echo spectra of a cycle apart).
+            crosstalk: measure the codes' cross-talk (``Frame.crosstalk_db``, NaN otherwise):
+                synthesises every beam's echoes apart instead of a cycle's at once.
         """
         n = len(schedule.directions)
         detected = np.zeros(n, bool)
@@ -115,19 +115,19 @@ class OfdmSonar:
         codes = [schedule.codes[k] for k in schedule.code_index[beams]]
         directions = schedule.directions[beams]
         poses = [pose_at(start_time + schedule.transmit_time[b]) for b in beams]
-        echo_spectra = []  # each beam's, kept for the cross-talk only
-        echoes = None
+        beam_groups = []  # per beam: its (paths, waveform) groups, fired at its offset
         for first in range(0, len(beams), TRACE_BATCH):  # beams traced a batch at a time
             batch = slice(first, first + TRACE_BATCH)
             traces = sonar.tracer.trace_many(poses[batch], directions[batch],
                                              [_seed(seed, b) for b in beams[batch]])
-            for trace, offset, code in zip(traces, offsets[batch], codes[batch]):
-                groups = [(p.delayed(offset), w)
-                          for p, w in sonar.echo_groups(trace.paths, code, self.synth)]
-                spectrum = self.synth.groups_spectrum(groups, n_rx)
-                echoes = spectrum if echoes is None else echoes + spectrum
-                if crosstalk:
-                    echo_spectra.append(spectrum)
+            beam_groups += [[(p.delayed(offset), w)
+                             for p, w in sonar.echo_groups(trace.paths, code, self.synth)]
+                            for trace, offset, code in zip(traces, offsets[batch], codes[batch])]
+        if crosstalk:  # each beam's echoes apart, to measure what the others leave in its code
+            echo_spectra = [self.synth.groups_spectrum(groups, n_rx) for groups in beam_groups]
+            echoes = np.sum(echo_spectra, axis=0)
+        else:  # the cycle's echoes on one grid, one FFT per distinct waveform and channel
+            echoes = self.synth.groups_spectrum([g for groups in beam_groups for g in groups], n_rx)
         direct_total = self.synth.groups_spectrum(
             [(sonar.tracer.direct_paths(u).delayed(offset), code)
              for u, offset, code in zip(directions, offsets, codes)], n_rx)

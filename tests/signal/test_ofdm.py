@@ -76,7 +76,7 @@ def test_25_simultaneous_targets_are_decoded_in_one_cycle(scene_file):
     sonar = mitsonar.Sonar(scene_file("targets", material_xml("t", preset="metal", scattering=0.0),
                                       *spheres), config)
     ofdm = OfdmSonar(sonar)
-    frame = ofdm.frame(ofdm.schedule(directions), lambda t: IDENTITY)
+    frame = ofdm.frame(ofdm.schedule(directions), lambda t: IDENTITY, crosstalk=True)
     assert len(frame.schedule.cycle_start) == 1 and frame.detected.all()
     assert np.max(np.abs(frame.depth - (ranges - radii))) <= 0.01  # measured 2.8 mm
     assert np.max(frame.crosstalk_db) < -6.0  # measured -9.4 dB (worst code)
