@@ -22,7 +22,6 @@ system spectra; the synthesizer adds the gridding kernel and the receiver noise.
 
 from __future__ import annotations
 
-from dataclasses import replace
 from functools import cache
 
 import numpy as np
@@ -197,24 +196,19 @@ class EchoSynthesizer:
         """Summed analytic spectrum on the band (n_channels, nb) of [(paths, waveform)] groups;
         spectra of several calls add up to their joint recording (see :meth:`Band.to_samples`).
 
-        All groups go onto one impulse grid with a block of channels per distinct waveform (one
-        kernel launch), transformed by one batched FFT.
+        The paths of each distinct waveform go onto an impulse grid of their own (one kernel
+        launch and one batched FFT per waveform: a grid of n_channels rows stays in cache, where
+        one grid for the ten code tones of an OFDM cycle made the gridding 30 % slower).
         """
         band = self.band
         by_waveform: dict = {}
         for paths, waveform in groups:
             by_waveform.setdefault(band.pulse if waveform is None else waveform, []).append(paths)
-        waveforms = list(by_waveform)
-        stacked = Paths.concatenate([replace(p.paths, channel=p.channel + k * n_channels, elements=None)
-                                     for k, w in enumerate(waveforms) for p in by_waveform[w]])
-        grid = self.impulse_grid(stacked, len(waveforms) * n_channels)
-        spectra = sfft.fft(grid, axis=-1, workers=-1).reshape(len(waveforms), n_channels,
-                                                              band.n_grid)
-        filters = np.stack([band.system_spectrum(w)[band.bins] for w in waveforms]) \
-            * self._deconvolution
-        spectrum = spectra[0][:, band.grid_bins] * filters[0]
-        for k in range(1, len(waveforms)):  # a few waveforms (einsum is 2x slower here)
-            spectrum += spectra[k][:, band.grid_bins] * filters[k]
+        spectrum = np.zeros((n_channels, len(band.frequencies)), complex)
+        for waveform, parts in by_waveform.items():
+            grid = self.impulse_grid(Paths.concatenate([p.paths for p in parts]), n_channels)
+            spectrum += sfft.fft(grid, axis=-1, workers=-1)[:, band.grid_bins] \
+                * (band.system_spectrum(waveform)[band.bins] * self._deconvolution)
         return spectrum
 
     def group_spectrum(self, paths: Paths, waveform, n_channels: int) -> np.ndarray:
