@@ -36,8 +36,9 @@ def main(argv=None) -> int:
     args = build_parser().parse_args(argv)
     try:
         return args.func(args)
-    except (ValueError, FileNotFoundError, argparse.ArgumentTypeError) as err:
-        # user errors: one clear line naming the command, no traceback
+    except (ValueError, OSError, argparse.ArgumentTypeError) as err:
+        # user errors (and the system refusing a file: permissions, a full disk): one clear
+        # line naming the command, no traceback
         sub_command = getattr(args, f"{args.command}_command", None)
         name = " ".join(filter(None, ("mitsonar", args.command, sub_command)))
         print(f"{name}: error: {err}", file=sys.stderr)

@@ -136,3 +136,20 @@ def test_run_time_errors_name_the_sub_command(tmp_path, capsys):
     err = capsys.readouterr().err.strip()
     assert err.startswith("mitsonar dataset info: error:"), err
     assert "\n" not in err
+
+
+def test_a_file_the_system_refuses_is_one_line(tmp_path, capsys, monkeypatch):
+    """An OSError while a command writes (permission denied, read-only or full disk) is one line
+    naming the file, exit 2, no traceback."""
+    from mitsonar.cli import build_parser, main, scan
+
+    def refuse(args):
+        raise PermissionError(13, "Permission denied", str(tmp_path / "out" / "points.ply"))
+
+    monkeypatch.setattr(scan, "_run_scan", refuse)
+    parser = build_parser()  # built after the patch: the scan command now runs refuse()
+    monkeypatch.setattr("mitsonar.cli.build_parser", lambda: parser)
+    assert main(["scan", "room_glass", "--out", str(tmp_path / "out")]) == 2
+    refused = tmp_path / "out" / "points.ply"
+    err = capsys.readouterr().err.strip()
+    assert err == f"mitsonar scan: error: [Errno 13] Permission denied: '{refused}'"
