@@ -45,6 +45,21 @@ class Parser(argparse.ArgumentParser):
         self.exit(2, f"{self.prog}: error: {message} (see '{self.prog} --help')\n")
 
 
+def command_group(subparsers, name: str, help: str, description: str | None = None):
+    """The sub-parsers of a command with sub-commands (``mitsonar NAME COMMAND``); the chosen
+    sub-command is ``args.<name>_command``, which :func:`mitsonar.cli.main`'s errors name."""
+    group = subparsers.add_parser(name, help=help, description=description)
+    return group.add_subparsers(dest=f"{name}_command", required=True, metavar="COMMAND",
+                                help=f"what to run ('mitsonar {name} COMMAND --help' lists its "
+                                     "options)")
+
+
+def add_output_argument(parser) -> None:
+    """The required ``--out`` directory of a command that writes several files."""
+    parser.add_argument("--out", type=output_directory, required=True,
+                        help="output directory, created if absent; its files are replaced")
+
+
 def output_directory(text) -> Path:
     """argparse type of an output directory: absent (it is created) or a directory. Raises
     ArgumentTypeError naming the file in the way where it, or a folder on its path, is a file."""

@@ -6,7 +6,7 @@ import sys
 import time
 from pathlib import Path
 
-from mitsonar.cli.arguments import output_directory, output_file
+from mitsonar.cli.arguments import command_group, output_directory, output_file
 from mitsonar.io import write_json
 from mitsonar.design.evaluation import BeamCriteria, evaluate_layout, uniform_pair
 from mitsonar.design.figures import make_figures, metrics_rows
@@ -16,11 +16,10 @@ from mitsonar.design.record import default_layout_path, format_summary, layout_r
 
 def add_cli(subparsers) -> None:
     """``mitsonar array design`` and ``mitsonar array plot``."""
-    p = subparsers.add_parser("array", help="design and plot the sparse transmit/receive arrays",
-                              description="Sparse 5x5 array design by genetic algorithm, and "
-                                          "beam-pattern figures.")
-    sub = p.add_subparsers(dest="array_command", required=True, metavar="COMMAND",
-                           help="what to run ('mitsonar array COMMAND --help' lists its options)")
+    sub = command_group(subparsers, "array",
+                        help="design and plot the sparse transmit/receive arrays",
+                        description="Sparse 5x5 array design by genetic algorithm, and "
+                                    "beam-pattern figures.")
     d = sub.add_parser(
         "design", help="run the genetic algorithm and write the layout JSON",
         description="Design the interleaved transmit and receive 5x5 layouts by a seeded genetic "

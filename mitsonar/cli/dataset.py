@@ -6,16 +6,15 @@ from pathlib import Path
 
 import numpy as np
 
-from mitsonar.cli.arguments import (add_preset_argument, add_scene_argument, output_directory,
-                                    output_file)
+from mitsonar.cli.arguments import (add_preset_argument, add_scene_argument, command_group,
+                                    output_directory, output_file)
 from mitsonar.data.dataset import DatasetSpec, open_dataset, render_dataset
 
 
 def add_cli(subparsers) -> None:
     """``mitsonar dataset render|info|export``."""
-    ds = subparsers.add_parser("dataset", help="paired camera + echo datasets along trajectories")
-    sub = ds.add_subparsers(dest="dataset_command", required=True, metavar="COMMAND",
-                           help="what to run ('mitsonar dataset COMMAND --help' lists its options)")
+    sub = command_group(subparsers, "dataset",
+                        help="paired camera + echo datasets along trajectories")
     r = sub.add_parser("render", help="render (or resume) a dataset along the scene's trajectory",
                        description="Render camera images, per-microphone echoes of a beam scan, "
                                    "poses and calibration for every sample along a trajectory. "

@@ -6,9 +6,9 @@ import sys
 
 import numpy as np
 
-from mitsonar.cli.arguments import (add_preset_argument, add_record_argument,
-                                    add_scene_argument, add_trajectory_argument,
-                                    output_directory, trajectory_from_args)
+from mitsonar.cli.arguments import (add_output_argument, add_preset_argument,
+                                    add_record_argument, add_scene_argument,
+                                    add_trajectory_argument, command_group, trajectory_from_args)
 from mitsonar.recon.repeated import REGISTRATIONS, RepeatedMapSpec, map_repeated
 from mitsonar.recon.surfels import SurfelSettings, map_surfels, save_surfel_map, summary
 from mitsonar.recon.voxelmap import VoxelMapSettings, save_voxel_figure, save_voxel_ply
@@ -18,16 +18,13 @@ from mitsonar.sensors.trajectory import sensor_poses
 
 def add_cli(subparsers) -> None:
     """``mitsonar map repeated`` and ``mitsonar map surfel``."""
-    m = subparsers.add_parser("map", help="reconstruction maps")
-    sub = m.add_subparsers(dest="map_command", required=True, metavar="COMMAND",
-                           help="what to run ('mitsonar map COMMAND --help' lists its options)")
+    sub = command_group(subparsers, "map", help="reconstruction maps")
     r = sub.add_parser("repeated", help="OFDM repeated scanning into a coloured voxel map",
                        description="Fire OFDM frames along the scene's default trajectory (or the "
                                    "waypoints given), colour the points from the camera and "
                                    "voxelise them.")
     add_scene_argument(r)
-    r.add_argument("--out", type=output_directory, required=True,
-                   help="output directory, created if absent; its files are replaced")
+    add_output_argument(r)
     add_trajectory_argument(r)
     r.add_argument("--frames", type=int, default=5,
                    help="OFDM frames fired along the trajectory (default 5)")
@@ -90,8 +87,7 @@ def _add_surfel(map_subparsers) -> None:
                     "4 pings each -> verified surfels -> plane groups -> planes grown between "
                     "the image lines; scored against the scene's ground truth.")
     add_scene_argument(s)
-    s.add_argument("--out", type=output_directory, required=True,
-                   help="output directory, created if absent; its files are replaced")
+    add_output_argument(s)
     add_trajectory_argument(s)
     s.add_argument("--frames", type=int, default=5,
                    help="camera poses spread evenly over the trajectory (default 5)")

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from mitsonar.cli.arguments import (add_preset_argument, add_scene_argument, output_directory,
+from mitsonar.cli.arguments import (add_output_argument, add_preset_argument, add_scene_argument,
                                     parse_fov, parse_pose)
 
 
@@ -30,8 +30,7 @@ def add_cli(subparsers) -> None:
                    help="TOML sonar configuration file, overriding --preset (default: none)")
     p.add_argument("--seed", type=int, default=0,
                    help="seed of the noise and the diffuse phases (default 0)")
-    p.add_argument("--out", type=output_directory, required=True,
-                   help="output directory, created if absent; its files are replaced")
+    add_output_argument(p)
     p.set_defaults(func=_run_scan)
 
 
