@@ -295,18 +295,54 @@ class ReceiveImager:
             & (value > s.clutter_margin * clutter[k])
         row, k, value = row[keep], k[keep], value[keep].astype(float)
         d = fov[row]
-        # Refined direction (power parabolas along u_x and u_y) and time of arrival.
-        n_x = self.shape[1]
-        power = [image[i, k].astype(float) ** 2 for i in (d - 1, d + 1, d - n_x, d + n_x)]
-        ux = self.directions[d, 0] + self.spacing * vertex(power[0], value**2, power[1])
-        uy = self.directions[d, 1] + self.spacing * vertex(power[2], value**2, power[3])
-        arrival = np.stack([ux, uy, np.sqrt(1.0 - ux**2 - uy**2)], axis=-1)
+        apparent = self.directions[d, :2] + self.spacing * self._peak_offsets(image, d, k)
         sample = k + vertex(image[d, k - 1], value, image[d, k + 1])
         length = self.c * (start_time + sample / fs)
+        arrival = _unit_direction(apparent)
+        for _ in range(2):  # (7) and the near-field correction depend on each other, weakly
+            receive_range = bistatic_depth(length, self._baseline,
+                                           dot(arrival, self._baseline_unit))
+            arrival = _unit_direction(apparent + self._near_field_shift(arrival, receive_range))
         receive_range = bistatic_depth(length, self._baseline, dot(arrival, self._baseline_unit))
         points = self.geometry.rx_origin + receive_range[:, None] * arrival
         snr = value / self.noise_level if self.noise_level > 0 else np.full(len(value), np.inf)
         return ImagePoints(points, arrival, length, value, snr, np.stack([d, k], axis=1))
+
+    def _near_field_shift(self, direction: np.ndarray, distance: np.ndarray) -> np.ndarray:
+        """(P, 2) what to add to the (u_x, u_y) of the peak of the plane-wave beams (5) to get
+        the direction of a source at ``distance`` (P,) [m] from the receive origin in
+        ``direction`` (P, 3). Within the array's far-field distance (2 x (10 cm)^2 / 8.5 mm =
+        2.3 m) element j hears the source q_j = (|p_j|^2 - (p_j . u)^2) / (2 r) later than a
+        plane wave from u; the beam that best aligns these delays (least squares) peaks
+        C^-1 cov(p, q) before u (C: the covariance of the positions p_j in the array plane)."""
+        p = self.geometry.rx_positions[:, :2] - self.geometry.rx_origin[:2]
+        along = direction[:, :2] @ p.T  # (P, N_rx)
+        late = (np.sum(p**2, axis=1) - along**2) / (2 * distance[:, None])
+        centred = p - p.mean(axis=0)
+        covariance = (late - late.mean(axis=1, keepdims=True)) @ centred / len(p)  # (P, 2)
+        return np.linalg.solve(np.cov(p.T, bias=True), covariance.T).T
+
+    def _peak_offsets(self, image: np.ndarray, d: np.ndarray, k: np.ndarray) -> np.ndarray:
+        """(P, 2) offsets [grid steps] along u_x and u_y of the main-lobe peaks around grid
+        directions d at samples k: the vertex of the quadratic through the log of the image at d
+        and its 8 neighbours (exact for a Gaussian lobe, whose axes need not be the grid's), or,
+        where that has no maximum within a step, of the parabolas along each axis."""
+        n_x = self.shape[1]
+        near = np.log(np.maximum(np.stack([image[d + dy * n_x + dx, k] for dy in (-1, 0, 1)
+                                           for dx in (-1, 0, 1)], axis=-1), 1e-30))
+        near = near.astype(float).reshape(-1, 3, 3)  # [p, y, x]
+        gx = 0.5 * (near[:, 1, 2] - near[:, 1, 0])
+        gy = 0.5 * (near[:, 2, 1] - near[:, 0, 1])
+        hxx = near[:, 1, 2] - 2 * near[:, 1, 1] + near[:, 1, 0]
+        hyy = near[:, 2, 1] - 2 * near[:, 1, 1] + near[:, 0, 1]
+        hxy = 0.25 * (near[:, 2, 2] - near[:, 2, 0] - near[:, 0, 2] + near[:, 0, 0])
+        det = hxx * hyy - hxy**2
+        safe = np.where(det > 0, det, 1.0)
+        joint = np.stack([(hxy * gy - hyy * gx) / safe, (hxy * gx - hxx * gy) / safe], axis=-1)
+        axes = np.stack([vertex(near[:, 1, 0], near[:, 1, 1], near[:, 1, 2]),
+                         vertex(near[:, 0, 1], near[:, 1, 1], near[:, 2, 1])], axis=-1)
+        maximum = (det > 0) & (hxx < 0) & np.all(np.abs(joint) <= 1.0, axis=-1)
+        return np.where(maximum[:, None], joint, axes)
 
     def _side_lobe_levels(self, image: np.ndarray, row: np.ndarray, k: np.ndarray) -> np.ndarray:
         """(P,) the largest side-lobe level that a grid direction outside the main lobe of cell
@@ -354,3 +390,8 @@ class ReceiveImager:
         density = [tail, np.sqrt(t) * tail / np.sqrt(2 * np.pi), (t - 1) * tail / (2 * np.pi),
                    np.sqrt(t) * (t - 3) * tail / (2 * np.pi) ** 1.5]
         return float(np.dot(lkc, density))
+
+
+def _unit_direction(u_xy: np.ndarray) -> np.ndarray:
+    """Unit vectors (P, 3) towards +z with direction cosines ``u_xy`` (P, 2)."""
+    return np.concatenate([u_xy, np.sqrt(1.0 - np.sum(u_xy**2, axis=1, keepdims=True))], axis=1)
