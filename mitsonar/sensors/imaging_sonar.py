@@ -43,6 +43,9 @@ from mitsonar.validation import check_range
 
 #: The axis of the traced cone: the array's normal, towards which no element has a firing delay.
 BROADSIDE = np.array([0.0, 0.0, 1.0])
+#: Element-pair paths synthesised together (bounds memory where every pair is synthesised: the
+#: whole array transmitting, broadband transducers).
+PATH_BATCH = 2**21
 
 
 @dataclass(frozen=True)
@@ -170,9 +173,13 @@ class ImagingSonar:
             keep_envelopes: keep the image itself (D x N values) in :attr:`Image.envelopes`.
         """
         sonar, cfg = self.sonar, self.sonar.config
-        trace = self.tracer.trace(pose, BROADSIDE, seed=seed)
-        groups = sonar.echo_groups(trace.paths, cfg.pulse) + [(self._direct, cfg.pulse)]
-        spectrum = sonar.synthesizer.groups_spectrum(groups, cfg.geometry.rx.count)
+        paths = self.tracer.trace(pose, BROADSIDE, seed=seed).paths
+        n_rx = cfg.geometry.rx.count
+        spectrum = sonar.synthesizer.group_spectrum(self._direct, None, n_rx)
+        hits = max(1, PATH_BATCH // (paths.elements[0] * n_rx))
+        for first in range(0, len(paths.tx_delay), hits):  # bounded batches of element pairs
+            part = paths.select(slice(first, first + hits))
+            spectrum += sonar.synthesizer.groups_spectrum(sonar.echo_groups(part, cfg.pulse), n_rx)
         recording = sonar.synthesizer.recording(sonar.band.to_samples(spectrum), cfg.noise_rms,
                                                 seed=[seed, 1])
         envelopes = self.imager.image(recording)
