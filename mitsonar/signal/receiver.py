@@ -53,13 +53,16 @@ Order and choices:
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 from mitsonar.physics.array import ArrayGeometry
 from mitsonar.signal.band import Band, Recording
 from mitsonar.signal.beamforming import Beamformer, dot
-from mitsonar.signal.detection import (Detection, Detections, DetectionSettings, bistatic_depth,
-                                       candidates, vertex)
+from mitsonar.signal import multiecho
+from mitsonar.signal.detection import (Detection, Detections, DetectionSettings, Echoes,
+                                       bistatic_depth, bistatic_point, candidates, vertex)
 
 #: Channel sets of the looks transformed together (bounds the memory of an OFDM cycle's looks:
 #: ~10 MB per set of 25 channels).
@@ -86,6 +89,7 @@ class EchoProcessor:
         self.noise_rms = float(noise_rms)
         self.beamformer = Beamformer(geometry, band, speed_of_sound, settings)
         self._filters = {}
+        self._profiles = {}
 
     def _matched_filter(self, waveform=None):
         """(filter spectrum on the band (nb,), template energy) of a waveform: conj(W) / E,
@@ -96,6 +100,14 @@ class EchoProcessor:
             energy = float(np.sum(np.abs(w) ** 2)) / self.band.n_fft  # Parseval
             self._filters[key] = (np.conj(w[self.band.bins]) / energy, energy)
         return self._filters[key]
+
+    def range_profile(self, waveform=None) -> tuple[np.ndarray, float]:
+        """:func:`~mitsonar.signal.multiecho.range_profile` of a waveform on the band (|R| by lag
+        (N,), tau_r [samples]), computed once."""
+        key = self.band.pulse if waveform is None else waveform
+        if key not in self._profiles:
+            self._profiles[key] = multiecho.range_profile(self.band, key)
+        return self._profiles[key]
 
     def noise_envelope_rms(self, waveform=None) -> float:
         """RMS of the beamformed matched-filter envelope of receiver noise alone [Pa]."""
@@ -227,47 +239,130 @@ class EchoProcessor:
             window &= path <= max_path_length
         if not np.all(np.any(window, axis=1)):
             raise ValueError("the recording ends before the minimum range")
-        every = np.arange(count)
-        k_max = np.argmax(np.where(window, envelopes, -np.inf), axis=1)
-        out = dict(detected=np.zeros(count, bool), time_of_arrival=np.full(count, np.nan),
-                   path_length=np.full(count, np.nan), depth=np.full(count, np.nan),
-                   point=np.full((count, 3), np.nan), direction=np.full((count, 3), np.nan),
-                   amplitude=envelopes[every, k_max], threshold=threshold[every, k_max])
-        beams, samples, ranks = candidates(envelopes, window & (envelopes > threshold) & balanced,
-                                           s.max_candidates)
+        above = window & (envelopes > threshold)
+        if s.echoes == "first":
+            beams, samples = self._strongest_echoes(envelopes, above & balanced, u, looks)
+            cells = (np.zeros(0, np.int64),) * 2
+        else:
+            beams, samples, cells = self._every_echo(envelopes, above, balanced, u, waves, looks)
+        return self._report(envelopes, threshold, window, start_time, transmit, u, waves, looks,
+                            beams, samples, cells)
+
+    def _strongest_echoes(self, envelopes, accepted, u, looks):
+        """(beams, samples) of each beam's strongest candidate that arrives along it, by beam
+        (``echoes`` = "first"); ``accepted`` (B, N): where a candidate may be."""
+        s = self.settings
+        beams, samples, ranks = candidates(envelopes, accepted, s.max_candidates)
         if looks is not None and s.ghost_margin > 0:
             # Each beam's strongest candidate first; the others where it arrives off the beam.
             strongest = ranks == 0
             passed = strongest.copy()
             passed[strongest] = self._pass_side_lobe_check(looks, u, beams[strongest],
                                                            samples[strongest])
-            done = np.zeros(count, bool)
+            done = np.zeros(len(envelopes), bool)
             done[beams[passed]] = True
             retry = (ranks > 0) & ~done[beams]
             passed[retry] = self._pass_side_lobe_check(looks, u, beams[retry], samples[retry])
             beams, samples = beams[passed], samples[passed]
         found, first = np.unique(beams, return_index=True)  # each beam's strongest left
-        k = samples[first]
-        sample = k + vertex(envelopes[found, k - 1], envelopes[found, k], envelopes[found, k + 1])
-        toa = start_time - transmit[found] + sample / fs
+        return found, samples[first]
+
+    def _every_echo(self, envelopes, above, balanced, u, waves, looks):
+        """(beams, samples) of every echo of B beams and (beams, samples) of their range cells
+        (``echoes`` = "all": none), each that arrives along its beam
+        (:mod:`mitsonar.signal.multiecho`); ``above`` (B, N): the envelope over the threshold in
+        the window, ``balanced`` (B, N): where the parts are balanced."""
+        s = self.settings
+        lobes, resolution = waves.range_profiles(self)
+        resolution = resolution[waves.kind]
+        peaks = np.zeros(envelopes.shape, bool)
+        peaks[:, 1:-1] = (envelopes[:, 1:-1] >= envelopes[:, :-2]) \
+            & (envelopes[:, 1:-1] > envelopes[:, 2:])
+        sources = peaks & above
+        found = multiecho.echo_peaks(envelopes, sources, balanced, resolution, lobes, waves.kind,
+                                     s.clutter_margin)
+        found = self._along_beam(looks, u, *found)
+        cells = (np.zeros(0, np.int64),) * 2
+        if s.echoes == "cells":
+            cells = multiecho.range_cells(envelopes, above, balanced, sources, found, resolution,
+                                          lobes, waves.kind, s.clutter_margin)
+            cells = self._along_beam(looks, u, *cells)
+        return found[0], found[1], cells
+
+    def _along_beam(self, looks, u, beams, samples):
+        """The (beams, samples) that pass the side-lobe check (all without looks or with
+        ``ghost_margin`` = 0)."""
+        if looks is None or self.settings.ghost_margin <= 0:
+            return beams, samples
+        passed = self._pass_side_lobe_check(looks, u, beams, samples)
+        return beams[passed], samples[passed]
+
+    def _report(self, envelopes, threshold, window, start_time, transmit, u, waves, looks,
+                beams, samples, cells) -> Detections:
+        """:class:`Detections` and :class:`Echoes` of B beams from their echoes (beams,
+        samples), by beam and then by decreasing amplitude, and their range cells (beams,
+        samples): each placed (time of arrival, arrival direction, bistatic depth (7)), cells
+        kept where their direction is trustworthy (``min_coherence``)."""
+        s, g = self.settings, self.geometry
+        fs = self.band.sample_rate
+        count = len(envelopes)
+        peak = np.concatenate([np.ones(len(beams), bool), np.zeros(len(cells[0]), bool)])
+        beams, k = np.concatenate([beams, cells[0]]), np.concatenate([samples, cells[1]])
+        refined = np.where(peak, vertex(envelopes[beams, k - 1], envelopes[beams, k],
+                                        envelopes[beams, k + 1]), 0.0)
+        sample = k + refined
+        toa = start_time - transmit[beams] + sample / fs
         l = self.c * toa
-        if looks is not None and s.arrival_step > 0 and len(found):  # (7) from the receive origin
-            look, beam = np.nonzero(waves.looks[found].T >= 0)  # every beam's first look first
-            sets = looks.sets(found[beam], look)
-            arrival = self.beamformer.arrival_directions(
-                looks.channels, sets, waves.carriers[waves.looks[found[beam], look]], beam,
-                sample, u[found])
-            receive_range = bistatic_depth(l, g.baseline, -dot(arrival, g.rx_origin) / g.baseline)
-            point = g.rx_origin + receive_range[:, None] * arrival
+        coherence = np.full(len(beams), np.nan)
+        if looks is not None and s.arrival_step > 0 and len(beams):  # (7) from the receive origin
+            look, row = np.nonzero(waves.looks[beams].T >= 0)  # every row's first look first
+            sets = looks.sets(beams[row], look)
+            carriers = waves.carriers[waves.looks[beams[row], look]]
+            arrival = self.beamformer.arrival_directions(looks.channels, sets, carriers, row,
+                                                         sample, u[beams])
+            coherence = self.beamformer.coherence(looks.channels, sets, carriers, row, sample,
+                                                  arrival)
+            if s.echoes == "first":  # placed from the receive origin, as ever
+                receive_range = bistatic_depth(l, g.baseline,
+                                               -dot(arrival, g.rx_origin) / g.baseline)
+                point = g.rx_origin + receive_range[:, None] * arrival
+            else:  # from the receive array's phase centre, where the arrival is measured
+                point = bistatic_point(l, arrival, g.rx_positions.mean(axis=0), np.zeros(3),
+                                       g.rx_origin)
         else:
-            arrival = u[found]
-            point = bistatic_depth(l, g.baseline, cos_b[found])[:, None] * arrival
-        for name, value in (("detected", True), ("time_of_arrival", toa), ("path_length", l),
-                            ("depth", np.linalg.norm(point, axis=-1)), ("point", point),
-                            ("direction", arrival), ("amplitude", envelopes[found, k]),
-                            ("threshold", threshold[found, k])):
-            out[name][found] = value
-        return Detections(**out)
+            arrival = u[beams]
+            cos_b = dot(u, g.rx_origin) / g.baseline
+            point = bistatic_depth(l, g.baseline, cos_b[beams])[:, None] * arrival
+        # The single-detection path trusts every direction; the others those that one plane wave
+        # explains, and echoes without a measured direction (on the beam axis, as the paper).
+        trusted = (s.echoes == "first") | (coherence >= s.min_coherence) \
+            | (peak & np.isnan(coherence))
+        noise = waves.noise[waves.kind[beams]]
+        with np.errstate(divide="ignore"):  # no receiver noise: infinite SNR
+            snr = envelopes[beams, k] / noise
+        table = Echoes(beams, np.zeros(len(beams), np.int64), peak, toa, l,
+                       np.linalg.norm(point, axis=-1), point, arrival, envelopes[beams, k], snr,
+                       coherence)
+        rows = np.flatnonzero(trusted)
+        rows = rows[np.lexsort((-table.amplitude[rows], ~peak[rows], beams[rows]))]
+        table, k = table.take(rows), k[rows]
+        rank = np.arange(len(rows)) - np.searchsorted(table.beam, table.beam)
+        table = replace(table, rank=rank)
+        every = np.arange(count)
+        k_max = np.argmax(np.where(window, envelopes, -np.inf), axis=1)
+        out = dict(detected=np.zeros(count, bool), time_of_arrival=np.full(count, np.nan),
+                   path_length=np.full(count, np.nan), depth=np.full(count, np.nan),
+                   point=np.full((count, 3), np.nan), direction=np.full((count, 3), np.nan),
+                   amplitude=envelopes[every, k_max], threshold=threshold[every, k_max])
+        first = rank == 0
+        found = table.beam[first]
+        for name, value in (("detected", True), ("time_of_arrival", table.time_of_arrival),
+                            ("path_length", table.path_length), ("depth", table.depth),
+                            ("point", table.point), ("direction", table.direction),
+                            ("amplitude", table.amplitude),
+                            ("threshold", threshold[table.beam, k])):
+            out[name][found] = value if np.ndim(value) == 0 else value[first]
+        return Detections(**out, echoes=table)
 
     def _pass_side_lobe_check(self, looks, u, beams, samples) -> np.ndarray:
         """(E,) True where candidate sample ``samples[e]`` of beam ``beams[e]`` arrives along the
@@ -334,8 +429,8 @@ class _Looks:
 
 
 class _Waveforms:
-    """The drive waveforms of B beams, by kind (distinct waveform): matched filters (K, nb) and
-    noise envelope levels (K,) [Pa]; and their looks (the parts of a code, or the waveform
+    """The drive waveforms of B beams, by kind (distinct waveform, :attr:`kinds`): matched filters
+    (K, nb) and noise envelope levels (K,) [Pa]; and their looks (the parts of a code, or the waveform
     itself): matched filters (T, nb) and carriers (T,) [Hz].
 
     Attributes:
@@ -351,6 +446,7 @@ class _Waveforms:
             kinds, self.kind = [pulse], np.zeros(count, np.int64)
         else:
             kinds, self.kind = _distinct([pulse if w is None else w for w in waveforms])
+        self.kinds = kinds
         self.filters = np.stack([processor._matched_filter(w)[0] for w in kinds])
         self.noise = np.array([processor.noise_envelope_rms(w) for w in kinds])
         parts = [tuple(getattr(w, "parts", ())) for w in kinds]
@@ -363,6 +459,12 @@ class _Waveforms:
         self.has_parts = np.array([len(p) > 0 for p in parts])[self.kind]
         self.look_filters = np.stack([processor._matched_filter(t)[0] for t in tones])
         self.carriers = np.array([float(t.frequency) for t in tones])
+
+    def range_profiles(self, processor: EchoProcessor) -> tuple[np.ndarray, np.ndarray]:
+        """(|R| by lag (K, N), tau_r (K,) [samples]) of each kind
+        (:meth:`EchoProcessor.range_profile`)."""
+        lobes, resolution = zip(*map(processor.range_profile, self.kinds))
+        return np.stack(lobes), np.array(resolution)
 
 
 def _distinct(items) -> tuple[list, np.ndarray]:

@@ -1,0 +1,163 @@
+"""Every echo of a beam (``DetectionSettings.echoes`` = "all" or "cells"), for B beams at once.
+
+Multibeam echosounders report several detections per beam, and phase-measuring ones a sounding
+for every instant of an echo, placed at the angle the receive array measures then. This module
+chooses those instants; :class:`~mitsonar.signal.receiver.EchoProcessor` checks them (parts,
+side lobes), places them (arrival direction, bistatic depth (7)) and reports them
+(:class:`~mitsonar.signal.detection.Echoes`).
+
+* Range resolution tau_r: the full width at -3 dB of the envelope that one echo leaves after the
+  matched filter, the autocorrelation envelope |R(tau)| of the expected echo (drive through both
+  transducer responses, :meth:`Band.system_spectrum
+  <mitsonar.signal.band.Band.system_spectrum>`): |R| = |IFFT |W(f)|^2| on the band, normalised
+  to R(0) = 1, read between samples by linear interpolation (:func:`range_profile`). The TCT40
+  pulse: 0.81 ms (13.8 cm of depth at 343 m/s); the paper preset's ideal transducers: 0.30 ms
+  (5.1 cm); 20 kHz broadband transducers: 0.35 ms (6.0 cm), their OFDM codes 0.19 ms (3.3 cm).
+* Echoes ("all", :func:`echo_peaks`): the local maxima of a beam's envelope in its window over
+  the receiver's threshold (``detection_snr`` x the RMS noise envelope, ``detection_floor``,
+  direct-path blanking) with no stronger local maximum within tau_r, and over the local clutter:
+  ``clutter_margin`` times the range side lobes and ringing of every stronger local maximum
+  j, A_j |R(t - t_j)| (what a point echo of amplitude A_j leaves at that lag; a cell-averaging
+  CFAR would also suppress the extended echoes that "cells" is after). Each must then have its
+  parts balanced and pass the side-lobe check (:mod:`~mitsonar.signal.receiver`).
+* Range cells ("cells", :func:`range_cells`): the echoes, plus every sample on a grid of
+  ceil(tau_r) samples that lies in a run of the envelope over the threshold holding an accepted
+  echo, at least tau_r from every accepted echo, over the clutter of every stronger local
+  maximum or grid sample (an extended echo is a chain of such cells; the ringing of a point echo
+  is not: it is explained by the echo), with its parts balanced and passing the side-lobe check.
+  A cell is placed at its sample (no parabola: it is no peak) along the arrival direction
+  measured at that instant, and kept only if that direction is trustworthy: at least
+  ``min_coherence`` of the receive channels' power then is explained by one plane wave from it
+  (:meth:`Beamformer.coherence <mitsonar.signal.beamforming.Beamformer.coherence>`; one
+  arrival: 1, receiver noise alone: 1 / N_rx; an echo eta times the noise envelope:
+  (eta^2 + 1) / (eta^2 + N_rx); two arrivals at once, lower).
+* False-alarm rate (:func:`expected_false_alarms`): receiver noise alone gives a Rayleigh
+  envelope of RMS sigma (:meth:`EchoProcessor.noise_envelope_rms
+  <mitsonar.signal.receiver.EchoProcessor.noise_envelope_rms>`), over eta sigma with probability
+  exp(-eta^2) per sample; the envelope rises through eta sigma 2 sqrt(pi) b eta exp(-eta^2) times
+  per second (Rice), b being the rms bandwidth of the matched-filter output (:meth:`Band.band_moments
+  <mitsonar.signal.band.Band.band_moments>`). Each rise is one echo at most, so a window of T
+  seconds, N = 2 sqrt(pi) b T independent cells, gives N eta exp(-eta^2) false echoes per beam:
+  with the default eta = 5, 1e-9 per beam for the TCT40 pulse (b = 364 Hz, T = 29 ms); at
+  eta = 2.5 (measured on noise alone, ``tests/signal/test_echoes.py``) 0.18. Rough spectra
+  (the paper preset's rectangular pulse, whose rms bandwidth its spectral tails set) rise through
+  the threshold several times per echo: measured, about half the design value. The side-lobe
+  check rejects most noise peaks too (they come from all directions), so with it the rate is
+  lower still; a range cell of noise needs a noise echo in its run.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+#: Level of the autocorrelation envelope that sets the range resolution (-3 dB).
+RESOLUTION_LEVEL = 2 ** -0.5
+
+
+def range_profile(band, waveform=None) -> tuple[np.ndarray, float]:
+    """(|R| (n_samples,), tau_r [samples]) of ``waveform`` (default: the band's pulse) on
+    ``band`` (a :class:`~mitsonar.signal.band.Band`): the envelope one echo leaves after the
+    matched filter at lags of 0, 1, ... samples of the recording, normalised to 1 at lag 0, and
+    its full width at :data:`RESOLUTION_LEVEL` (module docstring)."""
+    w = band.system_spectrum(waveform)[band.bins]
+    lobes = np.abs(band.to_analytic(np.abs(w) ** 2))
+    lobes /= lobes[0]
+    below = int(np.argmax(lobes < RESOLUTION_LEVEL))
+    half = below - 1 + (lobes[below - 1] - RESOLUTION_LEVEL) / (lobes[below - 1] - lobes[below])
+    return lobes, 2.0 * half
+
+
+def expected_false_alarms(detection_snr: float, rms_bandwidth, duration) -> np.ndarray:
+    """Design number of echoes that receiver noise alone gives in a window of ``duration`` [s]
+    over ``detection_snr`` times the RMS noise envelope, for a matched-filter output of
+    ``rms_bandwidth`` [Hz]: 2 sqrt(pi) b T eta exp(-eta^2) (module docstring)."""
+    eta = float(detection_snr)
+    return 2 * np.sqrt(np.pi) * np.asarray(rms_bandwidth) * np.asarray(duration) \
+        * eta * np.exp(-eta**2)
+
+
+def echo_peaks(envelopes: np.ndarray, sources: np.ndarray, accepted: np.ndarray,
+               resolution: np.ndarray, side_lobes: np.ndarray, kind: np.ndarray, margin: float):
+    """Echoes of B beams (module docstring) before the side-lobe check.
+
+    Args:
+        envelopes: (B, N) [Pa].
+        sources: (B, N) the local maxima over the threshold inside the window.
+        accepted: (B, N) where an echo may be (its parts balanced).
+        resolution: (B,) tau_r of each beam's waveform [samples].
+        side_lobes: (K, N) |R| of each waveform kind by lag; kind: (B,) each beam's.
+        margin: ``clutter_margin``.
+
+    Returns (beams, samples) of the echoes, by beam and then by decreasing amplitude.
+    """
+    beams, samples = _by_strength(envelopes, sources)
+    amplitude = envelopes[beams, samples]
+    near, lobes = _stronger(beams, samples, amplitude, beams, samples, amplitude,
+                            side_lobes, kind)
+    keep = (near > resolution[beams]) & (amplitude > margin * lobes) & accepted[beams, samples]
+    return beams[keep], samples[keep]
+
+
+def range_cells(envelopes: np.ndarray, above: np.ndarray, accepted: np.ndarray,
+                sources: np.ndarray, echoes, resolution: np.ndarray, side_lobes: np.ndarray,
+                kind: np.ndarray, margin: float):
+    """Range cells of B beams across their accepted echoes (module docstring), before the
+    side-lobe check and the direction's trust.
+
+    Args:
+        envelopes, accepted, sources, resolution, side_lobes, kind, margin: as in
+            :func:`echo_peaks`.
+        above: (B, N) the envelope over the threshold inside the window.
+        echoes: (beams, samples) of the accepted echoes, sorted by beam.
+
+    Returns (beams, samples) of the cells, by beam and then by decreasing amplitude.
+    """
+    count, n = envelopes.shape
+    spacing = np.ceil(resolution).astype(np.int64)
+    grid = above & (np.arange(n) % spacing[:, None] == 0)
+    # Runs of ``above``, numbered from 1 across all beams (a gap column ends every beam's last).
+    padded = np.concatenate([above, np.zeros((count, 1), bool)], axis=1).ravel()
+    starts = padded & ~np.concatenate([[False], padded[:-1]])
+    run = (np.cumsum(starts) * padded).reshape(count, n + 1)[:, :n]
+    lit = np.zeros(run.max() + 1, bool)
+    lit[run[echoes[0], echoes[1]]] = True
+    lit[0] = False
+    beams, samples = _by_strength(envelopes, grid & accepted & lit[run])
+    amplitude = envelopes[beams, samples]
+    echo_beams, echo_samples = echoes
+    nearest_echo = _stronger(beams, samples, np.zeros(len(beams)), echo_beams, echo_samples,
+                             np.ones(len(echo_beams)), side_lobes, kind)[0]
+    src_beams, src_samples = np.nonzero(sources | grid)
+    lobes = _stronger(beams, samples, amplitude, src_beams, src_samples,
+                      envelopes[src_beams, src_samples], side_lobes, kind)[1]
+    keep = (nearest_echo >= resolution[beams]) & (amplitude > margin * lobes)
+    return beams[keep], samples[keep]
+
+
+def _by_strength(envelopes: np.ndarray, mask: np.ndarray):
+    """(beams, samples) where ``mask`` (B, N), by beam and then by decreasing envelope."""
+    beams, samples = np.nonzero(mask)
+    order = np.lexsort((-envelopes[beams, samples], beams))
+    return beams[order], samples[order]
+
+
+def _stronger(beams, samples, amplitude, src_beams, src_samples, src_amplitude,
+              side_lobes: np.ndarray, kind: np.ndarray):
+    """For queries (beams, samples, amplitude) (Q,) and sources (S,) sorted by beam: the lag
+    [samples] to the nearest source of the query's beam stronger than it (inf if none), and the
+    strongest range side lobe A_j |R(lag)| those sources leave at the query [Pa]. (Q, K) pairs,
+    K the most sources of a beam."""
+    count = max(int(beams.max(initial=-1)), int(src_beams.max(initial=-1))) + 1
+    slot = np.arange(len(src_beams)) - np.searchsorted(src_beams, src_beams)
+    width = int(slot.max(initial=0)) + 1
+    at = np.zeros((count, width), np.int64)
+    level = np.zeros((count, width))  # padding: never stronger
+    at[src_beams, slot] = src_samples
+    level[src_beams, slot] = src_amplitude
+    lag = np.abs(samples[:, None] - at[beams])
+    source_level = level[beams]
+    stronger = source_level > amplitude[:, None]
+    near = np.where(stronger, lag, np.inf).min(axis=1, initial=np.inf)
+    lobe = side_lobes[kind[beams][:, None], np.minimum(lag, side_lobes.shape[1] - 1)]
+    lobes = np.where(stronger, source_level * lobe, 0.0).max(axis=1, initial=0.0)
+    return near, lobes
