@@ -123,8 +123,8 @@ class OfdmSonar:
             poses[beams] = result["poses"]
             tables.append(result["echoes"])
             cycle_beams.append(beams)
-        return Frame(schedule, detected, depth, amplitude, points, Echoes.gather(tables, cycle_beams),
-                     poses, crosstalk_db, start_time)
+        return Frame(schedule, detected, depth, amplitude, points,
+                     Echoes.gather(tables, cycle_beams), poses, crosstalk_db, start_time)
 
     def _cycle(self, schedule: Schedule, beams, pose_at, start_time: float, seed: int,
                crosstalk: bool) -> dict:

@@ -7,7 +7,7 @@
     print(ping.detection.depth)                      # metres, NaN if no detection
     scan = sonar.scan(pose, sonar.fov_grid(np.radians(5)))
     scan.points_world                                # (n_detected, 3)
-    scan.echo_points_world                           # every echo reported (DetectionSettings.echoes)
+    scan.echo_points_world                           # every echo (DetectionSettings.echoes)
 """
 
 from __future__ import annotations

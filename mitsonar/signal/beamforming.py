@@ -207,21 +207,28 @@ class Beamformer:
         return direction_from_fov_angles(h0 + offsets[i] + s.arrival_step * along_h,
                                          v0 + offsets[j] + s.arrival_step * along_v)
 
+    def aligned(self, channels: np.ndarray, sets, carriers, samples, directions) -> np.ndarray:
+        """(E, N_rx) channel values of E looks: channel set ``sets[e]`` of ``channels`` (S, N_rx,
+        N) demodulated at ``carriers[e]`` [Hz], each channel read at (fractional) sample
+        ``samples[e]`` plus its delay (5) towards ``directions[e]`` (E, 3) and phase-aligned,
+        as :meth:`operator` reads them (their sum is the beam)."""
+        k = np.floor(samples).astype(np.int64)
+        data, columns, _ = self._weights(np.asarray(directions, dtype=float), carriers,
+                                         samples - k, np.arange(len(k)))
+        windows = self.windows(channels, sets, k).T.ravel()
+        return (data * windows[columns]).reshape(len(k), -1, 2).sum(axis=-1)
+
     def coherence(self, channels: np.ndarray, sets, carriers, beams, samples,
                   directions) -> np.ndarray:
         """(D,) fraction of the receive channels' power at (fractional) ``samples`` (D,)
         explained by one plane wave from ``directions`` (D, 3): |sum_j x_j|^2 / (N_rx sum_j
-        |x_j|^2), x_j channel j read at its delay (5) and phase-aligned as by :meth:`operator`,
-        numerator and denominator each summed over the looks e of beam ``beams[e]`` (channel set
-        ``sets[e]`` demodulated at ``carriers[e]`` [Hz], as in :meth:`arrival_directions`);
-        NaN where the channels are silent."""
+        |x_j|^2) with x_j of :meth:`aligned`, numerator and denominator each summed over the
+        looks e of beam ``beams[e]`` (channel set ``sets[e]`` demodulated at ``carriers[e]``
+        [Hz], as in :meth:`arrival_directions`); NaN where the channels are silent."""
         beams = np.asarray(beams, np.int64)
-        k = np.floor(samples).astype(np.int64)
-        data, columns, _ = self._weights(np.asarray(directions, dtype=float)[beams], carriers,
-                                         (samples - k)[beams], np.arange(len(beams)))
-        windows = self.windows(channels, sets, k[beams]).T.ravel()
-        aligned = (data * windows[columns]).reshape(len(beams), -1, 2).sum(axis=-1)
+        x = self.aligned(channels, sets, carriers, np.asarray(samples)[beams],
+                         np.asarray(directions)[beams])
         beam, total = np.zeros((2, len(directions)))
-        np.add.at(beam, beams, np.abs(aligned.sum(axis=1)) ** 2)
-        np.add.at(total, beams, aligned.shape[1] * np.sum(np.abs(aligned) ** 2, axis=1))
+        np.add.at(beam, beams, np.abs(x.sum(axis=1)) ** 2)
+        np.add.at(total, beams, x.shape[1] * np.sum(np.abs(x) ** 2, axis=1))
         return np.divide(beam, total, out=np.full(len(total), np.nan), where=total > 0)

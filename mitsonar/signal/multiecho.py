@@ -76,8 +76,65 @@ def expected_false_alarms(detection_snr: float, rms_bandwidth, duration) -> np.n
         * eta * np.exp(-eta**2)
 
 
+class Clutter:
+    """What a unit echo in a beam's decoded envelope leaves at a lag [samples] from it in the
+    same envelope: its waveform's range side lobes and ringing |R(|lag|)|; and, in a recording
+    shared with other beams (an OFDM cycle), what the other beams' transmissions leave, lighting
+    the same reflector through their transmit patterns and leaking into this beam's matched
+    filter through their waveforms' cross-correlation |X|, delayed by their firing offsets.
+
+    Args:
+        side_lobes: (K, N) |R| of each waveform kind by lag (:func:`range_profile`).
+        kind: (B,) each beam's kind.
+        cross: None (a recording per beam), or (lobes, gains, firing): |X| (K, K, 2 S + 1) of
+            an echo of kind k' decoded for kind k at lags -S..S; the transmit array factor
+            (B, B) of beam b' towards beam b's axis at b''s frequency (0 on the diagonal); each
+            beam's firing time (B,) [samples].
+    """
+
+    def __init__(self, side_lobes: np.ndarray, kind: np.ndarray, cross=None):
+        self.side_lobes = side_lobes
+        self.kind = kind
+        self.cross = cross
+
+    def __call__(self, beams: np.ndarray, lags: np.ndarray) -> np.ndarray:
+        """(P,) relative level a unit echo of beam ``beams[p]`` leaves ``lags[p]`` samples
+        after it (signed). The other beams' leaks are looked up only for the beams fired within
+        S samples of that lag (a few: codes are fired a slot apart)."""
+        kind = self.kind[beams]
+        own = self.side_lobes[kind, np.minimum(np.abs(lags), self.side_lobes.shape[1] - 1)]
+        if self.cross is None:
+            return own
+        lobes, gains, firing = self.cross
+        span = lobes.shape[-1] // 2
+        order = np.argsort(firing)
+        when = firing[beams] + lags  # where the other beams' echoes of that reflector start
+        first = np.searchsorted(firing[order], when - span, "left")
+        last = np.searchsorted(firing[order], when + span, "right")
+        index = first[:, None] + np.arange(int((last - first).max(initial=0)))  # (P, M)
+        other = order[np.minimum(index, len(order) - 1)]
+        shifted = np.rint(when[:, None] - firing[other]).astype(np.int64) + span
+        inside = (index < last[:, None]) & (shifted >= 0) & (shifted <= 2 * span)
+        leak = gains[beams[:, None], other] * lobes[kind[:, None], self.kind[other],
+                                                    np.clip(shifted, 0, 2 * span)]
+        return np.maximum(own, np.where(inside, leak, 0.0).max(axis=-1, initial=0.0))
+
+
+def transmit_gains(tx_positions: np.ndarray, directions: np.ndarray,
+                   frequencies: np.ndarray, speed_of_sound: float) -> np.ndarray:
+    """(B, B) normalised transmit array factor |sum_i exp(j k' p_i . (u_b - u_b'))| / N_tx of
+    beam b' (steered to u_b', at its frequency f' (B,) [Hz], k' = 2 pi f' / c) towards beam b's
+    direction u_b, from element positions (N_tx, 3) [m]; 0 on the diagonal (:class:`Clutter`)."""
+    k = 2 * np.pi * np.asarray(frequencies, dtype=float) / speed_of_sound
+    difference = directions[:, None, :] - directions[None, :, :]  # (B, B', 3)
+    phase = k[None, :, None] * (difference @ np.asarray(tx_positions, dtype=float).T)
+    gains = np.abs(np.exp(1j * phase).sum(axis=-1)) / len(tx_positions)
+    np.fill_diagonal(gains, 0.0)
+    return gains
+
+
 def echo_peaks(envelopes: np.ndarray, sources: np.ndarray, accepted: np.ndarray,
-               resolution: np.ndarray, side_lobes: np.ndarray, kind: np.ndarray, margin: float):
+               resolution: np.ndarray, clutter: Clutter, margin: float):
     """Echoes of B beams (module docstring) before the side-lobe check.
 
     Args:
@@ -85,29 +142,32 @@ def echo_peaks(envelopes: np.ndarray, sources: np.ndarray, accepted: np.ndarray,
         sources: (B, N) the local maxima over the threshold inside the window.
         accepted: (B, N) where an echo may be (its parts balanced).
         resolution: (B,) tau_r of each beam's waveform [samples].
-        side_lobes: (K, N) |R| of each waveform kind by lag; kind: (B,) each beam's.
+        clutter: what an echo leaves at a lag from it.
         margin: ``clutter_margin``.
 
-    Returns (beams, samples) of the echoes, by beam and then by decreasing amplitude.
+    Returns (beams, samples) of the echoes, by beam and then by decreasing amplitude, and where
+    the resolved maxima are, (B, N): the sources with no stronger one within tau_r.
     """
     beams, samples = _by_strength(envelopes, sources)
     amplitude = envelopes[beams, samples]
-    near, lobes = _stronger(beams, samples, amplitude, beams, samples, amplitude,
-                            side_lobes, kind)
-    keep = (near > resolution[beams]) & (amplitude > margin * lobes) & accepted[beams, samples]
-    return beams[keep], samples[keep]
+    near, lobes = _stronger(beams, samples, amplitude, beams, samples, amplitude, clutter)
+    resolved = near > resolution[beams]
+    keep = resolved & (amplitude > margin * lobes) & accepted[beams, samples]
+    mask = np.zeros(envelopes.shape, bool)
+    mask[beams[resolved], samples[resolved]] = True
+    return (beams[keep], samples[keep]), mask
 
 
 def range_cells(envelopes: np.ndarray, above: np.ndarray, accepted: np.ndarray,
-                sources: np.ndarray, echoes, resolution: np.ndarray, side_lobes: np.ndarray,
-                kind: np.ndarray, margin: float):
+                resolved: np.ndarray, echoes, resolution: np.ndarray, clutter: Clutter,
+                margin: float):
     """Range cells of B beams across their accepted echoes (module docstring), before the
     side-lobe check and the direction's trust.
 
     Args:
-        envelopes, accepted, sources, resolution, side_lobes, kind, margin: as in
-            :func:`echo_peaks`.
+        envelopes, accepted, resolution, clutter, margin: as in :func:`echo_peaks`.
         above: (B, N) the envelope over the threshold inside the window.
+        resolved: (B, N) the resolved maxima (:func:`echo_peaks`).
         echoes: (beams, samples) of the accepted echoes, sorted by beam.
 
     Returns (beams, samples) of the cells, by beam and then by decreasing amplitude.
@@ -126,10 +186,10 @@ def range_cells(envelopes: np.ndarray, above: np.ndarray, accepted: np.ndarray,
     amplitude = envelopes[beams, samples]
     echo_beams, echo_samples = echoes
     nearest_echo = _stronger(beams, samples, np.zeros(len(beams)), echo_beams, echo_samples,
-                             np.ones(len(echo_beams)), side_lobes, kind)[0]
-    src_beams, src_samples = np.nonzero(sources | grid)
+                             np.ones(len(echo_beams)), clutter)[0]
+    src_beams, src_samples = np.nonzero(resolved | grid)
     lobes = _stronger(beams, samples, amplitude, src_beams, src_samples,
-                      envelopes[src_beams, src_samples], side_lobes, kind)[1]
+                      envelopes[src_beams, src_samples], clutter)[1]
     keep = (nearest_echo >= resolution[beams]) & (amplitude > margin * lobes)
     return beams[keep], samples[keep]
 
@@ -142,11 +202,11 @@ def _by_strength(envelopes: np.ndarray, mask: np.ndarray):
 
 
 def _stronger(beams, samples, amplitude, src_beams, src_samples, src_amplitude,
-              side_lobes: np.ndarray, kind: np.ndarray):
+              clutter: Clutter):
     """For queries (beams, samples, amplitude) (Q,) and sources (S,) sorted by beam: the lag
     [samples] to the nearest source of the query's beam stronger than it (inf if none), and the
-    strongest range side lobe A_j |R(lag)| those sources leave at the query [Pa]. (Q, K) pairs,
-    K the most sources of a beam."""
+    most those sources leave at the query, A_j ``clutter`` [Pa]. (Q, K) pairs, K the most
+    sources of a beam."""
     count = max(int(beams.max(initial=-1)), int(src_beams.max(initial=-1))) + 1
     slot = np.arange(len(src_beams)) - np.searchsorted(src_beams, src_beams)
     width = int(slot.max(initial=0)) + 1
@@ -154,10 +214,13 @@ def _stronger(beams, samples, amplitude, src_beams, src_samples, src_amplitude,
     level = np.zeros((count, width))  # padding: never stronger
     at[src_beams, slot] = src_samples
     level[src_beams, slot] = src_amplitude
-    lag = np.abs(samples[:, None] - at[beams])
+    lag = samples[:, None] - at[beams]
     source_level = level[beams]
     stronger = source_level > amplitude[:, None]
-    near = np.where(stronger, lag, np.inf).min(axis=1, initial=np.inf)
-    lobe = side_lobes[kind[beams][:, None], np.minimum(lag, side_lobes.shape[1] - 1)]
-    lobes = np.where(stronger, source_level * lobe, 0.0).max(axis=1, initial=0.0)
+    near = np.where(stronger, np.abs(lag), np.inf).min(axis=1, initial=np.inf)
+    query, source = np.nonzero(stronger)
+    leaves = np.zeros(lag.shape)
+    leaves[query, source] = source_level[query, source] * clutter(beams[query],
+                                                                  lag[query, source])
+    lobes = leaves.max(axis=1, initial=0.0)
     return near, lobes

@@ -64,6 +64,9 @@ from mitsonar.signal import multiecho
 from mitsonar.signal.detection import (Detection, Detections, DetectionSettings, Echoes,
                                        bistatic_depth, bistatic_point, candidates, vertex)
 
+#: Cross-talk between the waveforms of one recording is followed out to the lags where their
+#: range profiles fall below this (:meth:`EchoProcessor._crosstalk`).
+CROSS_FLOOR = 1e-4
 #: Channel sets of the looks transformed together (bounds the memory of an OFDM cycle's looks:
 #: ~10 MB per set of 25 channels).
 LOOK_BATCH = 4
@@ -90,6 +93,7 @@ class EchoProcessor:
         self.beamformer = Beamformer(geometry, band, speed_of_sound, settings)
         self._filters = {}
         self._profiles = {}
+        self._crosstalks = {}
 
     def _matched_filter(self, waveform=None):
         """(filter spectrum on the band (nb,), template energy) of a waveform: conj(W) / E,
@@ -191,7 +195,7 @@ class EchoProcessor:
         looks = _Looks(self, spectra, waves, start_time, n) \
             if s.ghost_margin > 0 or s.arrival_step > 0 else None
         return envelopes, self._decide(envelopes, start_time, u, direct_envelopes, waves,
-                                       transmit_times, max_path_length, balanced, looks)
+                                       transmit_times, max_path_length, balanced, looks, shared)
 
     def detect(self, envelope: np.ndarray, start_time: float, direction,
                direct_envelope: np.ndarray | None = None, waveform=None,
@@ -216,11 +220,11 @@ class EchoProcessor:
                             np.ones(envelopes.shape, bool))[0]
 
     def _decide(self, envelopes, start_time, u, direct_envelopes, waves, transmit_times,
-                max_path_length, balanced, looks=None) -> Detections:
+                max_path_length, balanced, looks=None, shared=False) -> Detections:
         """:class:`Detections` of B beams from their envelopes (B, N) [Pa] (arguments as in
-        :meth:`process_beams`; ``balanced`` (B, N): where the parts are balanced). With the
-        beams' looks, the side-lobe check and the arrival direction; without, every candidate
-        is taken to arrive along its beam."""
+        :meth:`process_beams`; ``balanced`` (B, N): where the parts are balanced; ``shared``:
+        one recording for all). With the beams' looks, the side-lobe check and the arrival
+        direction; without, every candidate is taken to arrive along its beam."""
         s, g = self.settings, self.geometry
         fs = self.band.sample_rate
         count, n = envelopes.shape
@@ -244,7 +248,9 @@ class EchoProcessor:
             beams, samples = self._strongest_echoes(envelopes, above & balanced, u, looks)
             cells = (np.zeros(0, np.int64),) * 2
         else:
-            beams, samples, cells = self._every_echo(envelopes, above, balanced, u, waves, looks)
+            crosstalk = self._crosstalk(u, waves, transmit) if shared else None
+            beams, samples, cells = self._every_echo(envelopes, above, balanced, u, waves, looks,
+                                                     crosstalk)
         return self._report(envelopes, threshold, window, start_time, transmit, u, waves, looks,
                             beams, samples, cells)
 
@@ -267,11 +273,12 @@ class EchoProcessor:
         found, first = np.unique(beams, return_index=True)  # each beam's strongest left
         return found, samples[first]
 
-    def _every_echo(self, envelopes, above, balanced, u, waves, looks):
+    def _every_echo(self, envelopes, above, balanced, u, waves, looks, crosstalk):
         """(beams, samples) of every echo of B beams and (beams, samples) of their range cells
         (``echoes`` = "all": none), each that arrives along its beam
         (:mod:`mitsonar.signal.multiecho`); ``above`` (B, N): the envelope over the threshold in
-        the window, ``balanced`` (B, N): where the parts are balanced."""
+        the window, ``balanced`` (B, N): where the parts are balanced, ``crosstalk``: the
+        beams' cross-talk in a shared recording (:meth:`_crosstalk`) or None."""
         s = self.settings
         lobes, resolution = waves.range_profiles(self)
         resolution = resolution[waves.kind]
@@ -279,15 +286,38 @@ class EchoProcessor:
         peaks[:, 1:-1] = (envelopes[:, 1:-1] >= envelopes[:, :-2]) \
             & (envelopes[:, 1:-1] > envelopes[:, 2:])
         sources = peaks & above
-        found = multiecho.echo_peaks(envelopes, sources, balanced, resolution, lobes, waves.kind,
-                                     s.clutter_margin)
+        clutter = multiecho.Clutter(lobes, waves.kind, crosstalk)
+        found, resolved = multiecho.echo_peaks(envelopes, sources, balanced, resolution, clutter,
+                                               s.clutter_margin)
         found = self._along_beam(looks, u, *found)
         cells = (np.zeros(0, np.int64),) * 2
         if s.echoes == "cells":
-            cells = multiecho.range_cells(envelopes, above, balanced, sources, found, resolution,
-                                          lobes, waves.kind, s.clutter_margin)
+            cells = multiecho.range_cells(envelopes, above, balanced, resolved, found, resolution,
+                                          clutter, s.clutter_margin)
             cells = self._along_beam(looks, u, *cells)
         return found[0], found[1], cells
+
+    def _crosstalk(self, u, waves, transmit):
+        """(|X| (K, K, 2 S + 1), transmit gains (B, B), firing times (B,) [samples]) of B
+        beams in one recording (:class:`~mitsonar.signal.multiecho.Clutter`): the envelope an
+        echo of kind k' leaves decoded for kind k at lags -S..S, S the longest range profile
+        above ``CROSS_FLOOR``; each computed once per pair of kinds."""
+        span = max(int(np.flatnonzero(self.range_profile(w)[0] >= CROSS_FLOOR).max())
+                   for w in waves.kinds)
+        missing = [(a, b) for a in waves.kinds for b in waves.kinds
+                   if (a, b, span) not in self._crosstalks]
+        if missing:
+            band = self.band
+            # An echo of kind b, decoded for kind a, delayed by S samples (lag -S at sample 0).
+            delay = np.exp(-2j * np.pi * band.frequencies * span / band.sample_rate)
+            spectra = np.stack([band.system_spectrum(b)[band.bins] * self._matched_filter(a)[0]
+                                for a, b in missing]) * delay
+            lobes = np.abs(band.to_analytic(spectra)[:, : 2 * span + 1])
+            self._crosstalks.update(((a, b, span), x) for (a, b), x in zip(missing, lobes))
+        table = np.stack([[self._crosstalks[a, b, span] for b in waves.kinds] for a in waves.kinds])
+        frequencies = np.array([float(w.frequency) for w in waves.kinds])[waves.kind]
+        gains = multiecho.transmit_gains(self.geometry.tx_positions, u, frequencies, self.c)
+        return table, gains, transmit * self.band.sample_rate
 
     def _along_beam(self, looks, u, beams, samples):
         """The (beams, samples) that pass the side-lobe check (all without looks or with
@@ -429,9 +459,9 @@ class _Looks:
 
 
 class _Waveforms:
-    """The drive waveforms of B beams, by kind (distinct waveform, :attr:`kinds`): matched filters
-    (K, nb) and noise envelope levels (K,) [Pa]; and their looks (the parts of a code, or the waveform
-    itself): matched filters (T, nb) and carriers (T,) [Hz].
+    """The drive waveforms of B beams, by kind (distinct waveform, :attr:`kinds`): matched
+    filters (K, nb) and noise envelope levels (K,) [Pa]; and their looks (the parts of a code,
+    or the waveform itself): matched filters (T, nb) and carriers (T,) [Hz].
 
     Attributes:
         kind: (B,) each beam's kind.
