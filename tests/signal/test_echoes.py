@@ -326,13 +326,12 @@ def test_range_cells_cross_extended_echoes_not_the_ringing_of_point_echoes():
     peaks = np.zeros(envelopes.shape, bool)
     peaks[:, 1:-1] = (envelopes[:, 1:-1] >= envelopes[:, :-2]) \
         & (envelopes[:, 1:-1] > envelopes[:, 2:])
-    kind, tau = np.zeros(2, np.int64), np.full(2, resolution)
-    echoes, resolved = multiecho.echo_peaks(envelopes, peaks & above, above, tau, lobes[None],
-                                            kind, 2.0)
+    clutter, tau = multiecho.Clutter(lobes[None], np.zeros(2, np.int64)), np.full(2, resolution)
+    echoes, resolved = multiecho.echo_peaks(envelopes, peaks & above, above, tau, clutter, 2.0)
     np.testing.assert_array_equal(echoes[0], [0, 1])
     np.testing.assert_array_equal(echoes[1], [start, start])
     beams, samples = multiecho.range_cells(envelopes, above, above, resolved, echoes, tau,
-                                           lobes[None], kind, 2.0)
+                                           clutter, 2.0)
     assert np.all(beams == 1) and np.all(np.sort(samples) % int(np.ceil(resolution)) == 0)
     assert samples.min() >= start + resolution
     assert samples.max() <= start + length + resolution
