@@ -69,7 +69,7 @@ class DetectionSettings:
     arrival_step: float = np.radians(0.5)
     echoes: str = "first"
     clutter_margin: float = 2.0
-    min_coherence: float = 0.5
+    min_coherence: float = 0.6
 
     def __post_init__(self):
         if self.echoes not in ECHO_MODES:

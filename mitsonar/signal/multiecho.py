@@ -77,19 +77,25 @@ def expected_false_alarms(detection_snr: float, rms_bandwidth, duration) -> np.n
 
 
 class Clutter:
-    """What a unit echo in a beam's decoded envelope leaves at a lag [samples] from it in the
-    same envelope: its waveform's range side lobes and ringing |R(|lag|)|; and, in a recording
-    shared with other beams (an OFDM cycle), what the other beams' transmissions leave, lighting
-    the same reflector through their transmit patterns and leaking into this beam's matched
-    filter through their waveforms' cross-correlation |X|, delayed by their firing offsets.
+    """What the echoes of a beam's recording leave in its decoded envelope, besides themselves.
+
+    * Range side lobes and ringing: an echo of amplitude A_j leaves A_j |R(t - t_j)| in its own
+      beam (:func:`range_profile`).
+    * Cross-talk, in a recording shared with other beams (an OFDM cycle): another beam b' lights
+      the same reflectors, and its code leaks into this beam's matched filter through their
+      cross-correlation envelope |X|. An echo j of this beam is also lit by b''s transmit
+      pattern (its array factor towards this beam's axis, T) and arrives again b''s firing
+      offset later: it leaves A_j T |X(t - t_j - offset)| (:meth:`__call__`). An echo j' of
+      beam b' reaches this beam through its receive pattern (its array factor towards b''s
+      axis, R_x): it leaves A_j' R_x |X(t - t_j')| (:meth:`leaks`).
 
     Args:
         side_lobes: (K, N) |R| of each waveform kind by lag (:func:`range_profile`).
         kind: (B,) each beam's kind.
-        cross: None (a recording per beam), or (lobes, gains, firing): |X| (K, K, 2 S + 1) of
-            an echo of kind k' decoded for kind k at lags -S..S; the transmit array factor
-            (B, B) of beam b' towards beam b's axis at b''s frequency (0 on the diagonal); each
-            beam's firing time (B,) [samples].
+        cross: None (a recording per beam), or (lobes, transmit, receive, firing): |X|
+            (K, K, 2 S + 1) of an echo of kind k' decoded for kind k at lags -S..S; T and R_x
+            (B, B) of beam b' for beam b (0 on the diagonal, :func:`array_gains`); each beam's
+            firing time (B,) [samples].
     """
 
     def __init__(self, side_lobes: np.ndarray, kind: np.ndarray, cross=None):
@@ -98,37 +104,61 @@ class Clutter:
         self.cross = cross
 
     def __call__(self, beams: np.ndarray, lags: np.ndarray) -> np.ndarray:
-        """(P,) relative level a unit echo of beam ``beams[p]`` leaves ``lags[p]`` samples
-        after it (signed). The other beams' leaks are looked up only for the beams fired within
-        S samples of that lag (a few: codes are fired a slot apart)."""
+        """(P,) level relative to its amplitude that an echo of beam ``beams[p]`` leaves
+        ``lags[p]`` samples after it (signed) in its own envelope. The other beams' leaks are
+        looked up only for the beams fired within S samples of that lag (a few: codes are fired
+        a slot apart)."""
         kind = self.kind[beams]
         own = self.side_lobes[kind, np.minimum(np.abs(lags), self.side_lobes.shape[1] - 1)]
         if self.cross is None:
             return own
-        lobes, gains, firing = self.cross
-        span = lobes.shape[-1] // 2
+        lobes, transmit, _, firing = self.cross
         order = np.argsort(firing)
         when = firing[beams] + lags  # where the other beams' echoes of that reflector start
-        first = np.searchsorted(firing[order], when - span, "left")
-        last = np.searchsorted(firing[order], when + span, "right")
-        index = first[:, None] + np.arange(int((last - first).max(initial=0)))  # (P, M)
-        other = order[np.minimum(index, len(order) - 1)]
-        shifted = np.rint(when[:, None] - firing[other]).astype(np.int64) + span
-        inside = (index < last[:, None]) & (shifted >= 0) & (shifted <= 2 * span)
-        leak = gains[beams[:, None], other] * lobes[kind[:, None], self.kind[other],
-                                                    np.clip(shifted, 0, 2 * span)]
+        other, shifted, inside = _within(firing[order], when, lobes.shape[-1] // 2)
+        other = order[other]
+        leak = transmit[beams[:, None], other] * lobes[kind[:, None], self.kind[other], shifted]
         return np.maximum(own, np.where(inside, leak, 0.0).max(axis=-1, initial=0.0))
 
+    def leaks(self, beams: np.ndarray, samples: np.ndarray, sources) -> np.ndarray:
+        """(Q,) the most that the echoes ``sources`` = (beams, samples, amplitudes) of the other
+        beams leave at samples ``samples`` (Q,) of beams ``beams`` (Q,) [Pa] (0 without
+        cross-talk)."""
+        if self.cross is None:
+            return np.zeros(len(beams))
+        lobes, _, receive, _ = self.cross
+        order = np.argsort(sources[1], kind="stable")
+        src_beams, src_samples, src_amplitude = (np.asarray(x)[order] for x in sources)
+        index, shifted, inside = _within(src_samples, samples, lobes.shape[-1] // 2)
+        other = src_beams[index]
+        leak = src_amplitude[index] * receive[beams[:, None], other] \
+            * lobes[self.kind[beams][:, None], self.kind[other], shifted]
+        return np.where(inside & (other != beams[:, None]), leak, 0.0).max(axis=-1, initial=0.0)
 
-def transmit_gains(tx_positions: np.ndarray, directions: np.ndarray,
-                   frequencies: np.ndarray, speed_of_sound: float) -> np.ndarray:
-    """(B, B) normalised transmit array factor |sum_i exp(j k' p_i . (u_b - u_b'))| / N_tx of
-    beam b' (steered to u_b', at its frequency f' (B,) [Hz], k' = 2 pi f' / c) towards beam b's
-    direction u_b, from element positions (N_tx, 3) [m]; 0 on the diagonal (:class:`Clutter`)."""
+
+def _within(times: np.ndarray, at: np.ndarray, span: int):
+    """For sorted ``times`` (S,) and queries ``at`` (Q,) [samples]: the indices (Q, M) of the
+    times within ``span`` of each query, the lags at - time + span clipped to [0, 2 span], and
+    where an index is one of them."""
+    first = np.searchsorted(times, at - span, "left")
+    last = np.searchsorted(times, at + span, "right")
+    index = first[:, None] + np.arange(int((last - first).max(initial=0)))  # (Q, M)
+    index = np.minimum(index, len(times) - 1)
+    shifted = np.rint(at[:, None] - times[index]).astype(np.int64) + span
+    inside = (first[:, None] + np.arange(index.shape[1]) < last[:, None]) \
+        & (shifted >= 0) & (shifted <= 2 * span)
+    return index, np.clip(shifted, 0, 2 * span), inside
+
+
+def array_gains(positions: np.ndarray, directions: np.ndarray,
+                frequencies: np.ndarray, speed_of_sound: float) -> np.ndarray:
+    """(B, B) normalised array factor |sum_i exp(j k' p_i . (u_b - u_b'))| / N of beam b'
+    (steered to u_b', at its frequency f' (B,) [Hz], k' = 2 pi f' / c) towards beam b's
+    direction u_b, from element positions (N, 3) [m]; 0 on the diagonal (:class:`Clutter`)."""
     k = 2 * np.pi * np.asarray(frequencies, dtype=float) / speed_of_sound
     difference = directions[:, None, :] - directions[None, :, :]  # (B, B', 3)
-    phase = k[None, :, None] * (difference @ np.asarray(tx_positions, dtype=float).T)
-    gains = np.abs(np.exp(1j * phase).sum(axis=-1)) / len(tx_positions)
+    phase = k[None, :, None] * (difference @ np.asarray(positions, dtype=float).T)
+    gains = np.abs(np.exp(1j * phase).sum(axis=-1)) / len(positions)
     np.fill_diagonal(gains, 0.0)
     return gains
 
@@ -139,8 +169,8 @@ def echo_peaks(envelopes: np.ndarray, sources: np.ndarray, accepted: np.ndarray,
 
     Args:
         envelopes: (B, N) [Pa].
-        sources: (B, N) the local maxima over the threshold inside the window.
-        accepted: (B, N) where an echo may be (its parts balanced).
+        sources: (B, N) the local maxima over the threshold (in the window or not).
+        accepted: (B, N) where an echo may be (in the window, its parts balanced).
         resolution: (B,) tau_r of each beam's waveform [samples].
         clutter: what an echo leaves at a lag from it.
         margin: ``clutter_margin``.
@@ -152,7 +182,9 @@ def echo_peaks(envelopes: np.ndarray, sources: np.ndarray, accepted: np.ndarray,
     amplitude = envelopes[beams, samples]
     near, lobes = _stronger(beams, samples, amplitude, beams, samples, amplitude, clutter)
     resolved = near > resolution[beams]
-    keep = resolved & (amplitude > margin * lobes) & accepted[beams, samples]
+    leaks = clutter.leaks(beams, samples, (beams[resolved], samples[resolved],
+                                           amplitude[resolved]))
+    keep = resolved & (amplitude > margin * np.maximum(lobes, leaks)) & accepted[beams, samples]
     mask = np.zeros(envelopes.shape, bool)
     mask[beams[resolved], samples[resolved]] = True
     return (beams[keep], samples[keep]), mask
@@ -190,6 +222,9 @@ def range_cells(envelopes: np.ndarray, above: np.ndarray, accepted: np.ndarray,
     src_beams, src_samples = np.nonzero(resolved | grid)
     lobes = _stronger(beams, samples, amplitude, src_beams, src_samples,
                       envelopes[src_beams, src_samples], clutter)[1]
+    resolved_beams, resolved_samples = np.nonzero(resolved)
+    lobes = np.maximum(lobes, clutter.leaks(beams, samples, (
+        resolved_beams, resolved_samples, envelopes[resolved_beams, resolved_samples])))
     keep = (nearest_echo >= resolution[beams]) & (amplitude > margin * lobes)
     return beams[keep], samples[keep]
 

@@ -243,14 +243,15 @@ class EchoProcessor:
             window &= path <= max_path_length
         if not np.all(np.any(window, axis=1)):
             raise ValueError("the recording ends before the minimum range")
-        above = window & (envelopes > threshold)
+        loud = envelopes > threshold
         if s.echoes == "first":
-            beams, samples = self._strongest_echoes(envelopes, above & balanced, u, looks)
+            beams, samples = self._strongest_echoes(envelopes, window & loud & balanced, u,
+                                                    looks)
             cells = (np.zeros(0, np.int64),) * 2
         else:
             crosstalk = self._crosstalk(u, waves, transmit) if shared else None
-            beams, samples, cells = self._every_echo(envelopes, above, balanced, u, waves, looks,
-                                                     crosstalk)
+            beams, samples, cells = self._every_echo(envelopes, loud, window, balanced, u, waves,
+                                                     looks, crosstalk)
         return self._report(envelopes, threshold, window, start_time, transmit, u, waves, looks,
                             beams, samples, cells)
 
@@ -273,35 +274,37 @@ class EchoProcessor:
         found, first = np.unique(beams, return_index=True)  # each beam's strongest left
         return found, samples[first]
 
-    def _every_echo(self, envelopes, above, balanced, u, waves, looks, crosstalk):
+    def _every_echo(self, envelopes, loud, window, balanced, u, waves, looks, crosstalk):
         """(beams, samples) of every echo of B beams and (beams, samples) of their range cells
         (``echoes`` = "all": none), each that arrives along its beam
-        (:mod:`mitsonar.signal.multiecho`); ``above`` (B, N): the envelope over the threshold in
-        the window, ``balanced`` (B, N): where the parts are balanced, ``crosstalk``: the
-        beams' cross-talk in a shared recording (:meth:`_crosstalk`) or None."""
+        (:mod:`mitsonar.signal.multiecho`). Masks (B, N): ``loud`` the envelope over the
+        threshold, ``window`` the listening window, ``balanced`` the parts balanced; the
+        echoes outside the window count as clutter too (a far wall's echo leaks into the window
+        of other codes). ``crosstalk``: the beams' cross-talk in a shared recording
+        (:meth:`_crosstalk`) or None."""
         s = self.settings
         lobes, resolution = waves.range_profiles(self)
         resolution = resolution[waves.kind]
         peaks = np.zeros(envelopes.shape, bool)
         peaks[:, 1:-1] = (envelopes[:, 1:-1] >= envelopes[:, :-2]) \
             & (envelopes[:, 1:-1] > envelopes[:, 2:])
-        sources = peaks & above
         clutter = multiecho.Clutter(lobes, waves.kind, crosstalk)
-        found, resolved = multiecho.echo_peaks(envelopes, sources, balanced, resolution, clutter,
-                                               s.clutter_margin)
+        found, resolved = multiecho.echo_peaks(envelopes, peaks & loud, window & balanced,
+                                               resolution, clutter, s.clutter_margin)
         found = self._along_beam(looks, u, *found)
         cells = (np.zeros(0, np.int64),) * 2
         if s.echoes == "cells":
-            cells = multiecho.range_cells(envelopes, above, balanced, resolved, found, resolution,
-                                          clutter, s.clutter_margin)
+            cells = multiecho.range_cells(envelopes, window & loud, balanced, resolved, found,
+                                          resolution, clutter, s.clutter_margin)
             cells = self._along_beam(looks, u, *cells)
         return found[0], found[1], cells
 
     def _crosstalk(self, u, waves, transmit):
-        """(|X| (K, K, 2 S + 1), transmit gains (B, B), firing times (B,) [samples]) of B
-        beams in one recording (:class:`~mitsonar.signal.multiecho.Clutter`): the envelope an
-        echo of kind k' leaves decoded for kind k at lags -S..S, S the longest range profile
-        above ``CROSS_FLOOR``; each computed once per pair of kinds."""
+        """(|X| (K, K, 2 S + 1), transmit and receive gains (B, B), firing times (B,) [samples])
+        of B beams in one recording (:class:`~mitsonar.signal.multiecho.Clutter`): the envelope
+        an echo of kind k' leaves decoded for kind k at lags -S..S, S the longest range profile
+        above ``CROSS_FLOOR``, each computed once per pair of kinds; the array factors at each
+        beam's own frequency."""
         span = max(int(np.flatnonzero(self.range_profile(w)[0] >= CROSS_FLOOR).max())
                    for w in waves.kinds)
         missing = [(a, b) for a in waves.kinds for b in waves.kinds
@@ -316,8 +319,10 @@ class EchoProcessor:
             self._crosstalks.update(((a, b, span), x) for (a, b), x in zip(missing, lobes))
         table = np.stack([[self._crosstalks[a, b, span] for b in waves.kinds] for a in waves.kinds])
         frequencies = np.array([float(w.frequency) for w in waves.kinds])[waves.kind]
-        gains = multiecho.transmit_gains(self.geometry.tx_positions, u, frequencies, self.c)
-        return table, gains, transmit * self.band.sample_rate
+        g = self.geometry
+        return (table, multiecho.array_gains(g.tx_positions, u, frequencies, self.c),
+                multiecho.array_gains(g.rx_positions, u, frequencies, self.c).T,
+                transmit * self.band.sample_rate)
 
     def _along_beam(self, looks, u, beams, samples):
         """The (beams, samples) that pass the side-lobe check (all without looks or with
