@@ -49,6 +49,7 @@ side lobes), places them (arrival direction, bistatic depth (7)) and reports the
 from __future__ import annotations
 
 import numpy as np
+from scipy.ndimage import maximum_filter1d
 
 #: Level of the autocorrelation envelope that sets the range resolution (-3 dB).
 RESOLUTION_LEVEL = 2 ** -0.5
@@ -178,16 +179,14 @@ def echo_peaks(envelopes: np.ndarray, sources: np.ndarray, accepted: np.ndarray,
     Returns (beams, samples) of the echoes, by beam and then by decreasing amplitude, and where
     the resolved maxima are, (B, N): the sources with no stronger one within tau_r.
     """
-    beams, samples = _by_strength(envelopes, sources)
+    peaks = np.where(sources, envelopes, 0.0)
+    resolved = sources & (peaks >= _window_max(peaks, np.floor(resolution).astype(np.int64)))
+    beams, samples = _by_strength(envelopes, resolved)
     amplitude = envelopes[beams, samples]
-    near, lobes = _stronger(beams, samples, amplitude, beams, samples, amplitude, clutter)
-    resolved = near > resolution[beams]
-    leaks = clutter.leaks(beams, samples, (beams[resolved], samples[resolved],
-                                           amplitude[resolved]))
-    keep = resolved & (amplitude > margin * np.maximum(lobes, leaks)) & accepted[beams, samples]
-    mask = np.zeros(envelopes.shape, bool)
-    mask[beams[resolved], samples[resolved]] = True
-    return (beams[keep], samples[keep]), mask
+    lobes = np.maximum(_lobes(beams, samples, amplitude, beams, samples, amplitude, clutter),
+                       clutter.leaks(beams, samples, (beams, samples, amplitude)))
+    keep = (amplitude > margin * lobes) & accepted[beams, samples]
+    return (beams[keep], samples[keep]), resolved
 
 
 def range_cells(envelopes: np.ndarray, above: np.ndarray, accepted: np.ndarray,
@@ -214,19 +213,29 @@ def range_cells(envelopes: np.ndarray, above: np.ndarray, accepted: np.ndarray,
     lit = np.zeros(run.max() + 1, bool)
     lit[run[echoes[0], echoes[1]]] = True
     lit[0] = False
-    beams, samples = _by_strength(envelopes, grid & accepted & lit[run])
+    near_echo = np.zeros(envelopes.shape)
+    near_echo[echoes] = 1.0
+    near_echo = _window_max(near_echo, spacing - 1) > 0  # closer than tau_r to an echo
+    beams, samples = _by_strength(envelopes, grid & accepted & lit[run] & ~near_echo)
     amplitude = envelopes[beams, samples]
-    echo_beams, echo_samples = echoes
-    nearest_echo = _stronger(beams, samples, np.zeros(len(beams)), echo_beams, echo_samples,
-                             np.ones(len(echo_beams)), clutter)[0]
     src_beams, src_samples = np.nonzero(resolved | grid)
-    lobes = _stronger(beams, samples, amplitude, src_beams, src_samples,
-                      envelopes[src_beams, src_samples], clutter)[1]
+    lobes = _lobes(beams, samples, amplitude, src_beams, src_samples,
+                   envelopes[src_beams, src_samples], clutter)
     resolved_beams, resolved_samples = np.nonzero(resolved)
     lobes = np.maximum(lobes, clutter.leaks(beams, samples, (
         resolved_beams, resolved_samples, envelopes[resolved_beams, resolved_samples])))
-    keep = (nearest_echo >= resolution[beams]) & (amplitude > margin * lobes)
+    keep = amplitude > margin * lobes
     return beams[keep], samples[keep]
+
+
+def _window_max(values: np.ndarray, half: np.ndarray) -> np.ndarray:
+    """(B, N) the largest of ``values`` (B, N) within ``half[b]`` samples of each sample (zero
+    beyond the ends); one running maximum per distinct half-width (per waveform kind)."""
+    out = np.empty(values.shape)
+    for width in np.unique(half):
+        rows = half == width
+        out[rows] = maximum_filter1d(values[rows], 2 * int(width) + 1, axis=1, mode="constant")
+    return out
 
 
 def _by_strength(envelopes: np.ndarray, mask: np.ndarray):
@@ -236,12 +245,11 @@ def _by_strength(envelopes: np.ndarray, mask: np.ndarray):
     return beams[order], samples[order]
 
 
-def _stronger(beams, samples, amplitude, src_beams, src_samples, src_amplitude,
-              clutter: Clutter):
-    """For queries (beams, samples, amplitude) (Q,) and sources (S,) sorted by beam: the lag
-    [samples] to the nearest source of the query's beam stronger than it (inf if none), and the
-    most those sources leave at the query, A_j ``clutter`` [Pa]. (Q, K) pairs, K the most
-    sources of a beam."""
+def _lobes(beams, samples, amplitude, src_beams, src_samples, src_amplitude,
+           clutter: Clutter) -> np.ndarray:
+    """(Q,) the most that the sources (S,) (beams, samples, amplitudes; sorted by beam) of each
+    query's beam stronger than it leave at the queries (beams, samples, amplitude) (Q,),
+    A_j ``clutter`` [Pa]: (Q, K) pairs, K the most sources of a beam."""
     count = max(int(beams.max(initial=-1)), int(src_beams.max(initial=-1))) + 1
     slot = np.arange(len(src_beams)) - np.searchsorted(src_beams, src_beams)
     width = int(slot.max(initial=0)) + 1
@@ -251,11 +259,8 @@ def _stronger(beams, samples, amplitude, src_beams, src_samples, src_amplitude,
     level[src_beams, slot] = src_amplitude
     lag = samples[:, None] - at[beams]
     source_level = level[beams]
-    stronger = source_level > amplitude[:, None]
-    near = np.where(stronger, np.abs(lag), np.inf).min(axis=1, initial=np.inf)
-    query, source = np.nonzero(stronger)
+    query, source = np.nonzero(source_level > amplitude[:, None])
     leaves = np.zeros(lag.shape)
     leaves[query, source] = source_level[query, source] * clutter(beams[query],
                                                                   lag[query, source])
-    lobes = leaves.max(axis=1, initial=0.0)
-    return near, lobes
+    return leaves.max(axis=1, initial=0.0)
