@@ -23,15 +23,16 @@ class DetectionSettings:
     """Receiver decision parameters.
 
     Attributes:
-        echoes: which echoes of a beam are reported (:class:`Echoes`): "first" (the strongest
-            accepted one, the single detection of :mod:`~mitsonar.signal.receiver`), "all"
-            (every echo over the range profile, each at its own arrival direction) or "cells"
-            (every echo, plus a point for every independent range cell across extended echoes
-            where the receive array's direction is trustworthy); :mod:`mitsonar.signal.multiecho`.
-        detection_snr: threshold over the RMS noise envelope, eta: noise alone exceeds it with
-            probability exp(-eta^2) per sample, and gives about 2 sqrt(pi) b T eta exp(-eta^2)
-            false echoes in a window of T [s] (b: the rms bandwidth of the matched-filter output;
-            :func:`~mitsonar.signal.multiecho.expected_false_alarms`).
+        echoes: which echoes of a beam are reported (:class:`Echoes`): "first" (the default:
+            the strongest accepted one, the single detection of :mod:`~mitsonar.signal.receiver`,
+            unchanged), "all" (every echo over the range profile, each at its own arrival
+            direction and bistatic depth) or "cells" ("all", plus a point for every independent
+            range cell across extended echoes); :mod:`mitsonar.signal.multiecho`.
+        detection_snr: threshold over the RMS noise envelope, eta (a ratio): noise alone
+            exceeds it with probability exp(-eta^2) per sample and gives N eta exp(-eta^2)
+            false echoes per beam, N = 2 sqrt(pi) b T the independent cells of a window of T
+            [s] (b: the rms bandwidth of the matched-filter output; 5: 3e-9 per beam for the
+            TCT40 pulse; :func:`~mitsonar.signal.multiecho.expected_false_alarms`).
         detection_floor: absolute threshold on the envelope [Pa] (matters without noise).
         blanking_margin: factor over the direct-path envelope a detection must exceed.
         min_range: nearest depth reported [m].
@@ -47,13 +48,15 @@ class DetectionSettings:
             strongest's that a candidate needs (in (0, 1]; an echo carries both equally).
         arrival_step: grid step of the arrival-direction estimate within the main lobe [rad]
             (:mod:`mitsonar.signal.receiver`; 0: every point on the beam axis, as the paper).
-        clutter_margin: factor by which an echo other than a beam's strongest must exceed the
-            range side lobes and ringing of each stronger echo of the beam (that echo's envelope
-            times the normalised autocorrelation envelope of the waveform at their lag);
-            "all" and "cells".
-        min_coherence: a range cell ("cells") is kept only where this fraction (in [0, 1]) of
+        clutter_margin: factor by which every echo ("all", "cells") must exceed what the
+            stronger echoes of the recording leave there: their range side lobes and ringing
+            (amplitude times the waveform's normalised autocorrelation envelope at the lag) and,
+            in an OFDM cycle, the other codes' cross-talk
+            (:class:`~mitsonar.signal.multiecho.Clutter`).
+        min_coherence: "all" and "cells" keep an echo only where this fraction (in [0, 1]) of
             the receive channels' power at its instant is explained by one plane wave from its
-            arrival direction (:class:`Echoes` ``coherence``).
+            arrival direction (:class:`Echoes` ``coherence``; echoes without an arrival-direction
+            estimate are kept, range cells are not).
     """
 
     detection_snr: float = 5.0
@@ -138,14 +141,14 @@ class Echoes:
             other echoes by decreasing amplitude, then its range cells by decreasing amplitude.
         peak: (E,) True for an echo (its envelope peak, refined by a parabola), False for a
             range cell across an extended echo (read at its sample).
+        amplitude: (E,) envelope [Pa].
+        snr: (E,) amplitude over the beam's RMS noise envelope (a ratio, not dB).
         time_of_arrival: (E,) [s] from the beam's firing.
         path_length: (E,) c * time_of_arrival [m].
         depth: (E,) distance of the point from the transmit origin, (7) [m].
         point: (E, 3) reflector [m].
         direction: (E, 3) unit vector the echo arrived from (the beam's direction without an
             arrival-direction estimate).
-        amplitude: (E,) envelope [Pa].
-        snr: (E,) amplitude over the beam's RMS noise envelope (a ratio, not dB).
         coherence: (E,) fraction of the receive channels' power at that instant explained by one
             plane wave from ``direction``, summed over the looks (1: a single arrival; about
             1 / N_rx for noise; NaN without an arrival-direction estimate).
@@ -154,13 +157,13 @@ class Echoes:
     beam: np.ndarray
     rank: np.ndarray
     peak: np.ndarray
+    amplitude: np.ndarray
+    snr: np.ndarray
     time_of_arrival: np.ndarray
     path_length: np.ndarray
     depth: np.ndarray
     point: np.ndarray
     direction: np.ndarray
-    amplitude: np.ndarray
-    snr: np.ndarray
     coherence: np.ndarray
 
     def __len__(self) -> int:

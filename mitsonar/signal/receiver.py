@@ -49,6 +49,16 @@ Order and choices:
   With an arrival direction, (7) is solved from the receive side instead (range r from o_R along
   u_a, theta_b measured from the RX -> TX vector): point = o_R + r u_a, and the depth is the
   point's distance from the transmit origin.
+* Every echo (``echoes`` = "all" or "cells", :mod:`mitsonar.signal.multiecho`): instead of the
+  strongest candidate, every echo over the local clutter and every independent range cell
+  across extended echoes, each through the same part balance and side-lobe check, each with
+  its own arrival direction, kept where that direction is trustworthy (``min_coherence``).
+  These are placed from the receive array's phase centre c (its element centroid, where the
+  delay-and-sum measures the arrival): point = c + r u_a with r from (7) for the path from the
+  transmit origin to the point and back to o_R. (The single-detection path above places from
+  o_R, as it always has; at 1-4 m that puts its points about 8 mm aside, along c - o_R.) The
+  strongest echo of each beam is its :class:`~mitsonar.signal.detection.Detections` entry; all
+  are in :class:`~mitsonar.signal.detection.Echoes`.
 """
 
 from __future__ import annotations
@@ -375,9 +385,10 @@ class EchoProcessor:
         noise = waves.noise[waves.kind[beams]]
         with np.errstate(divide="ignore"):  # no receiver noise: infinite SNR
             snr = envelopes[beams, k] / noise
-        table = Echoes(beams, np.zeros(len(beams), np.int64), peak, toa, l,
-                       np.linalg.norm(point, axis=-1), point, arrival, envelopes[beams, k], snr,
-                       coherence)
+        table = Echoes(beam=beams, rank=np.zeros(len(beams), np.int64), peak=peak,
+                       amplitude=envelopes[beams, k], snr=snr, time_of_arrival=toa,
+                       path_length=l, depth=np.linalg.norm(point, axis=-1), point=point,
+                       direction=arrival, coherence=coherence)
         rows = np.flatnonzero(trusted)
         rows = rows[np.lexsort((-table.amplitude[rows], ~peak[rows], beams[rows]))]
         table, k = table.take(rows), k[rows]
