@@ -346,8 +346,9 @@ class EchoProcessor:
                 beams, samples, cells) -> Detections:
         """:class:`Detections` and :class:`Echoes` of B beams from their echoes (beams,
         samples), by beam and then by decreasing amplitude, and their range cells (beams,
-        samples): each placed (time of arrival, arrival direction, bistatic depth (7)), cells
-        kept where their direction is trustworthy (``min_coherence``)."""
+        samples): each placed (time of arrival, arrival direction, bistatic depth (7)); with
+        ``echoes`` = "all" or "cells", kept where their direction is trustworthy
+        (``min_coherence``)."""
         s, g = self.settings, self.geometry
         fs = self.band.sample_rate
         count = len(envelopes)
@@ -359,7 +360,7 @@ class EchoProcessor:
         toa = start_time - transmit[beams] + sample / fs
         l = self.c * toa
         coherence = np.full(len(beams), np.nan)
-        if looks is not None and s.arrival_step > 0 and len(beams):  # (7) from the receive origin
+        if looks is not None and s.arrival_step > 0 and len(beams):  # (7) from the receive side
             look, row = np.nonzero(waves.looks[beams].T >= 0)  # every row's first look first
             sets = looks.sets(beams[row], look)
             carriers = waves.carriers[waves.looks[beams[row], look]]
