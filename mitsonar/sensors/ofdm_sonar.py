@@ -18,6 +18,7 @@ import numpy as np
 from mitsonar.frames import Pose
 from mitsonar.sensors.sonar import PRE_ROLL, TRACE_BATCH, Sonar
 from mitsonar.signal.band import Band
+from mitsonar.signal.detection import Echoes
 from mitsonar.signal.ofdm import PAPER_LISTEN, Schedule, code_set
 from mitsonar.signal.receiver import EchoProcessor
 from mitsonar.signal.synthesis import EchoSynthesizer
@@ -33,6 +34,9 @@ class Frame:
         depth: (B,) [m], NaN where nothing was detected.
         amplitude: (B,) strongest decoded envelope value [Pa].
         points_sensor: (B, 3) reflectors in the sensor frame of each beam's pose (NaN if none).
+        echo_table: every echo reported (``DetectionSettings.echoes``), one row each, points in
+            the sensor frame of its beam's pose; its rank-0 rows are ``detected``, ``depth`` and
+            ``points_sensor``.
         world_from_sensor: (B, 4, 4) sensor pose when each beam was fired.
         crosstalk_db: (B,) level that the other codes of the cycle leave in this code's decoded
             envelope, relative to this beam's own echo [dB] (NaN where nothing was detected, and
@@ -45,9 +49,21 @@ class Frame:
     depth: np.ndarray
     amplitude: np.ndarray
     points_sensor: np.ndarray
+    echo_table: Echoes
     world_from_sensor: np.ndarray
     crosstalk_db: np.ndarray
     start_time: float
+
+    @property
+    def echo_world_from_sensor(self) -> np.ndarray:
+        """(E, 4, 4) the sensor pose of every echo of :attr:`echo_table` (its beam's)."""
+        return self.world_from_sensor[self.echo_table.beam]
+
+    @property
+    def echo_points_world(self) -> np.ndarray:
+        """(E, 3) the points of every echo of :attr:`echo_table` in the world frame, (12)."""
+        m = self.echo_world_from_sensor
+        return np.einsum("eij,ej->ei", m[:, :3, :3], self.echo_table.point) + m[:, :3, 3]
 
 
 class OfdmSonar:
@@ -96,6 +112,7 @@ class OfdmSonar:
         points = np.full((n, 3), np.nan)
         poses = np.zeros((n, 4, 4))
         crosstalk_db = np.full(n, np.nan)
+        tables, cycle_beams = [], []
         for c in range(len(schedule.cycle_start)):  # cycles follow each other in time
             beams = np.nonzero(schedule.cycle == c)[0]
             result = self._cycle(schedule, beams, pose_at, start_time, seed, crosstalk)
@@ -104,7 +121,10 @@ class OfdmSonar:
                 target[beams] = result[key]
             points[beams] = result["points"]
             poses[beams] = result["poses"]
-        return Frame(schedule, detected, depth, amplitude, points, poses, crosstalk_db, start_time)
+            tables.append(result["echoes"])
+            cycle_beams.append(beams)
+        return Frame(schedule, detected, depth, amplitude, points,
+                     Echoes.gather(tables, cycle_beams), poses, crosstalk_db, start_time)
 
     def _cycle(self, schedule: Schedule, beams, pose_at, start_time: float, seed: int,
                crosstalk: bool) -> dict:
@@ -150,7 +170,7 @@ class OfdmSonar:
             strongest = np.where(window, leak, 0.0).max(axis=1)
             leaks[found] = 20 * np.log10(np.maximum(strongest, 1e-30) / det.amplitude[found])
         return {"detected": det.detected, "depth": det.depth, "amplitude": det.amplitude,
-                "points": det.point, "crosstalk": leaks,
+                "points": det.point, "echoes": det.echoes, "crosstalk": leaks,
                 "poses": np.array([pose.matrix() for pose in poses])}
 
 
