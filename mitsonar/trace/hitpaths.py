@@ -132,9 +132,38 @@ class HitPaths:
     def channel(self) -> np.ndarray:
         return self.paths.channel
 
+    def scaled(self, tx_factor, rx_factor) -> "HitPaths":
+        """The same paths with every pair's gain multiplied by tx_factor[h, i] rx_factor[h, j]
+        (complex (H, N_tx) and (H, N_rx) arrays, e.g. demodulating phasors)."""
+        return replace(self, tx_specular=self.tx_specular * tx_factor,
+                       tx_diffuse=self.tx_diffuse * tx_factor,
+                       rx_specular=self.rx_specular * rx_factor,
+                       rx_diffuse=self.rx_diffuse * rx_factor)
+
+    def gain_bound(self) -> np.ndarray:
+        """(H,) bound on each patch's pair gains |gain[h, i, j]| [Pa] (|sinc| <= 1)."""
+        peak = lambda a: np.abs(a).max(axis=1, initial=0.0)  # noqa: E731
+        return peak(self.tx_specular) * peak(self.rx_specular) * np.abs(self.specular) \
+            * (peak(self.tx_cos) + peak(self.rx_cos)) \
+            + peak(self.tx_diffuse) * peak(self.rx_diffuse) * np.abs(self.diffuse)
+
     def delayed(self, seconds: float) -> "HitPaths":
         """The same paths ``seconds`` [s] later (still factored)."""
         return replace(self, tx_delay=self.tx_delay + seconds)
+
+    def kernel_factors(self) -> tuple[list, list]:
+        """The gain factors as single-precision Dr.Jit arrays for :func:`pair_gain`: 7 transmit
+        factors (H x N_tx,) (specular re, im, diffuse re, im, cosine, sinc arguments) and 7
+        receive factors (H x N_rx,) with the patch's own factors folded in."""
+        Float32 = backend().Float32
+        rx_s = self.rx_specular * self.specular[:, None]
+        rx_d = self.rx_diffuse * self.diffuse[:, None]
+        tx = [to_jit(Float32, x) for x in (
+            self.tx_specular.real, self.tx_specular.imag, self.tx_diffuse.real,
+            self.tx_diffuse.imag, self.tx_cos, self.tx_sinc[..., 0], self.tx_sinc[..., 1])]
+        rx = [to_jit(Float32, x) for x in (rx_s.real, rx_s.imag, rx_d.real, rx_d.imag,
+                                           self.rx_cos, self.rx_sinc[..., 0], self.rx_sinc[..., 1])]
+        return tx, rx
 
     def narrowband(self, frequency: float) -> Paths:
         """Each patch's transmit elements merged into one path per receive element about
@@ -153,15 +182,8 @@ class HitPaths:
             return [Paths.empty() for _ in frequencies]
         # Transmit delays relative to their patch mean (|tau| <~ 0.2 ms): exact in single precision.
         tx_mean = self.tx_delay.mean(axis=1, keepdims=True)
-        f32 = lambda a: to_jit(Float32, a)  # noqa: E731
-        # Per (patch, receive element) thread: receive factors with the patch factors folded in.
-        rx_s = self.rx_specular * self.specular[:, None]
-        rx_d = self.rx_diffuse * self.diffuse[:, None]
-        rx = [f32(x) for x in (rx_s.real, rx_s.imag, rx_d.real, rx_d.imag, self.rx_cos,
-                               self.rx_sinc[..., 0], self.rx_sinc[..., 1])]
-        tx = [f32(x) for x in (self.tx_specular.real, self.tx_specular.imag, self.tx_diffuse.real,
-                               self.tx_diffuse.imag, self.tx_cos, self.tx_sinc[..., 0],
-                               self.tx_sinc[..., 1], self.tx_delay - tx_mean)]
+        tx, rx = self.kernel_factors()
+        tx.append(to_jit(Float32, self.tx_delay - tx_mean))
         # Opaque carriers: variables, not literals, so one kernel serves every tone.
         omegas = [dr.opaque(Float32, -2.0 * np.pi * f) for f in frequencies]
         group = next(g for g in range(min(MERGE_GROUP, n_rx), 0, -1) if n_rx % g == 0)
@@ -206,13 +228,9 @@ def _merge_kernel():
         phasors = [[dr.sincos(omega * values[7]) for values in tx_values] for omega in omegas]
         outputs = []
         for j in range(group):  # receive element thread * group + j (unrolled)
-            q_re, q_im, v_re, v_im, d, b1, b2 = (dr.gather(Float32, x, thread * group + j) for x in rx)
-            gains = []
-            for p_re, p_im, u_re, u_im, c, a1, a2, tau_i in tx_values:  # (unrolled)
-                patch = (c + d) * _sinc_dr(a1 + b1) * _sinc_dr(a2 + b2)
-                g_re = (p_re * q_re - p_im * q_im) * patch + u_re * v_re - u_im * v_im
-                g_im = (p_re * q_im + p_im * q_re) * patch + u_re * v_im + u_im * v_re
-                gains.append((g_re, g_im, tau_i))
+            rx_values = [dr.gather(Float32, x, thread * group + j) for x in rx]
+            gains = [pair_gain(values[:7], rx_values) + (values[7],)  # (unrolled)
+                     for values in tx_values]
             weight = [dr.sqrt(g_re * g_re + g_im * g_im) for g_re, g_im, _ in gains]
             total = sum(weight)
             mean_tau = dr.select(total > 0, sum(w * t for w, (_, _, t) in zip(weight, gains))
@@ -236,6 +254,16 @@ def _merge_kernel():
         return outputs
 
     return dr.freeze(merge)
+
+
+def pair_gain(tx_values, rx_values):
+    """Gain (re, im) of one element pair inside a Dr.Jit kernel, from the 7 transmit factors
+    and the 7 receive factors of :meth:`HitPaths.kernel_factors` (gathered for the pair)."""
+    p_re, p_im, u_re, u_im, c, a1, a2 = tx_values
+    q_re, q_im, v_re, v_im, d, b1, b2 = rx_values
+    patch = (c + d) * _sinc_dr(a1 + b1) * _sinc_dr(a2 + b2)
+    return ((p_re * q_re - p_im * q_im) * patch + u_re * v_re - u_im * v_im,
+            (p_re * q_im + p_im * q_re) * patch + u_re * v_im + u_im * v_re)
 
 
 def _sinc_dr(x):
