@@ -43,11 +43,10 @@ GRID_REDUCE = "Expand"
 
 def _spread(acc, pos, row, gain, first_order, rotation, half_width: int, inv_var: float,
             rate_inv_var: float, active=True):
-    """Inside a gridding kernel: add paths at positions ``pos`` [samples, Float64, > -half_width]
-    with the Gaussian kernel onto the Int64 fixed-point grid ``acc`` of interleaved (re, im)
-    samples, at sample ``row + floor(pos) + k + 2 half_width`` for taps k in -half_width ..
-    half_width (rows padded by 2 half_width on each side, folded onto the period by
-    :func:`_folded`).
+    """Inside a gridding kernel: add paths at positions ``pos`` [samples, Float64] with the
+    Gaussian kernel onto the Int64 fixed-point grid ``acc`` of interleaved (re, im) samples, at
+    sample ``row + floor(pos) + k`` for taps k in -half_width .. half_width (``row``: the path's
+    row start minus the row's first sample, :meth:`EchoSynthesizer._window`).
 
     ``gain`` (re, im) is in grid units; ``first_order`` None or (re, im, carrier - f_d [rad/s])
     (kernel derivative, see :meth:`EchoSynthesizer.impulse_grid`); ``rotation`` None or the
@@ -90,7 +89,7 @@ def _spread(acc, pos, row, gain, first_order, rotation, half_width: int, inv_var
             value_im = value_im + slope_im * x + slope_re * omega
         dr.scatter_reduce(dr.ReduceOp.Add, acc, Array2i64(Int64(dr.round(weight * value_re)),
                                                           Int64(dr.round(weight * value_im))),
-                          UInt32(row + base + (k + 2 * half_width)), active=active, mode=mode)
+                          UInt32(row + base + k), active=active, mode=mode)
 
 
 @cache
@@ -99,8 +98,8 @@ def _spread_kernel():
     frozen (``drjit.freeze``): traced once per kernel shape, then replayed without Python tracing
     whatever the path count.
 
-    Arguments: the flat padded grid's size, positions (M,) [samples], row offsets (M,) into the
-    flat grid, (re, im) gains, None or (re, im, carrier - f_d [rad/s]) of the first-order terms,
+    Arguments: the flat grid's size, positions (M,) [samples], row offsets (M,) (of ``_spread``),
+    (re, im) gains, None or (re, im, carrier - f_d [rad/s]) of the first-order terms,
     the shift f_d [cycles per sample], half_width [taps], 1/sigma^2, fs/sigma^2. Returns the
     Int64 grid of interleaved (re, im). (Each grid size is a separate recording: the grids are made inside, as
     scatter targets passed in would be replayed at the recorded size.)
@@ -125,20 +124,20 @@ def _pair_kernel():
     forms the gains of its N_tx element pairs from the factors (:func:`pair_gain`, single
     precision) and spreads them, so the H x N_tx x N_rx pairs never exist as arrays.
 
-    Arguments: the flat padded grid's size, thread indices 0 .. H x N_rx - 1, the 7 transmit and
-    7 receive factors (:meth:`HitPaths.kernel_factors`, already demodulated and in grid units),
+    Arguments: the flat grid's size, thread indices 0 .. H x N_rx - 1, the 7 transmit and 7
+    receive factors (:meth:`HitPaths.kernel_factors`, already demodulated and in grid units),
     transmit positions (H x N_tx,) and receive offsets (H x N_rx,) [samples] (a pair's position
-    is their sum), N_tx, N_rx, the padded row length, half_width, 1/sigma^2, the recording's
-    sample count. Returns the Int64 grid of interleaved (re, im).
+    is their sum), N_tx, N_rx, the row length, the rows' first sample (negated), half_width,
+    1/sigma^2, the recording's sample count. Returns the Int64 grid of interleaved (re, im).
     """
     import drjit as dr
     Float32, Float64, Int64 = backend().Float32, backend().Float64, backend().Int64
 
-    def spread_pairs(size, thread, tx, rx, tx_pos, rx_pos, n_tx, n_rx, stride, half_width,
-                     inv_var, n_samples):
+    def spread_pairs(size, thread, tx, rx, tx_pos, rx_pos, n_tx, n_rx, stride, row_offset,
+                     half_width, inv_var, n_samples):
         acc = dr.zeros(Int64, 2 * size)
         patch = thread // n_rx
-        row = Int64(thread - patch * n_rx) * stride
+        row = Int64(thread - patch * n_rx) * stride + row_offset
         rx_values = [dr.gather(Float32, x, thread) for x in rx]
         rx_u = dr.gather(Float64, rx_pos, thread)
         for i in range(n_tx):  # the patch's transmit elements (unrolled)
@@ -159,15 +158,15 @@ def _fixed_point_scale(peak: float) -> float | None:
     return None if peak == 0.0 else 2.0 ** (36 - np.ceil(np.log2(peak)))
 
 
-def _folded(acc, scale: float, n_rows: int, n_grid: int, pad: int) -> np.ndarray:
-    """The (n_rows, n_grid) complex64 grid of a kernel's padded fixed-point rows of interleaved
-    (re, im): column c of a padded row holds sample (c - pad) modulo n_grid, added onto the
-    period in contiguous pieces (at most a few)."""
+def _folded(acc, scale: float, n_rows: int, n_grid: int, origin: int) -> np.ndarray:
+    """The (n_rows, n_grid) complex64 grid of a kernel's fixed-point rows of interleaved (re, im):
+    column c of a row holds sample (origin + c) modulo n_grid, added onto the period in
+    contiguous pieces (at most a few)."""
     padded = acc.numpy().reshape(n_rows, -1, 2)
     grid = np.zeros((n_rows, n_grid), dtype=np.complex64)
     column = 0
     while column < padded.shape[1]:
-        first = (column - pad) % n_grid
+        first = (origin + column) % n_grid
         n = min(padded.shape[1] - column, n_grid - first)
         piece = padded[:, column:column + n]
         grid[:, first:first + n] += (piece[..., 0] + 1j * piece[..., 1]) * (1.0 / scale)
@@ -258,17 +257,26 @@ class EchoSynthesizer:
             to_jit(Float64, slope.real * scale), to_jit(Float64, slope.imag * scale),
             dr.opaque(Float64, omega))  # a variable, not a literal: one kernel for all carriers
         gains = (to_jit(Float64, gain.real * scale), to_jit(Float64, gain.imag * scale))
-        width = self._padded_width
-        acc = _spread_kernel()(n_channels * width, to_jit(Float64, u[keep]),
-                               to_jit(Int64, channel) * width, gains, first_order,
+        u = u[keep]
+        origin, width = self._window(u.min(), u.max())
+        acc = _spread_kernel()(n_channels * width, to_jit(Float64, u),
+                               to_jit(Int64, channel * width - origin), gains, first_order,
                                dr.opaque(Float64, band.shift_bin / band.n_grid), hw, inv_var,
                                fs * inv_var)
-        return _folded(acc, scale, n_channels, band.n_grid, 2 * hw)
+        return _folded(acc, scale, n_channels, band.n_grid, origin)
 
-    @property
-    def _padded_width(self) -> int:
-        """Columns of a kernel's padded grid rows: the recording, plus 2 half_width each side."""
-        return self.band.n_samples + 4 * self.half_width
+    def _window(self, first: float, last: float) -> tuple[int, int]:
+        """(origin, width) of the kernels' grid rows for paths at positions ``first`` ..
+        ``last`` [samples] (within -half_width .. n_samples + half_width): column c of a row
+        holds sample origin + c. The width is a power of two (each width is a kernel recording
+        of its own) where that is narrower than the whole recording and its kernel margins:
+        paths spanning a short time, such as direct paths, make small grids."""
+        hw = self.half_width
+        span = int(np.floor(last) - np.floor(first)) + 2 * hw + 1
+        width = 1 << (span - 1).bit_length()
+        if width >= self.band.n_samples + 4 * hw:
+            return -2 * hw, self.band.n_samples + 4 * hw
+        return int(np.floor(first)) - hw, width
 
     def _demodulation(self, u: np.ndarray) -> np.ndarray:
         """exp(-j 2 pi f_d u) (complex64) at positions ``u`` [samples], f_d the band centre."""
@@ -277,17 +285,18 @@ class EchoSynthesizer:
 
     def _pair_grid(self, paths: HitPaths, n_channels: int) -> np.ndarray:
         """:meth:`impulse_grid` of factored paths by :func:`_pair_kernel`."""
-        Float64, UInt32 = backend().Float64, backend().UInt32
+        import drjit as dr
+        Float64, Int64, UInt32 = backend().Float64, backend().Int64, backend().UInt32
 
         band = self.band
         fs, hw = band.sample_rate, self.half_width
         n_tx, n_rx = paths.elements
         if n_rx > n_channels:
             raise ValueError(f"path channel out of range 0..{n_channels - 1}")
-        earliest = paths.tx_delay.min(axis=1) + paths.rx_delay.min(axis=1)
-        latest = paths.tx_delay.max(axis=1) + paths.rx_delay.max(axis=1)
-        paths = paths.select(((latest - band.start_time) * fs > -hw)
-                             & ((earliest - band.start_time) * fs < band.n_samples + hw))
+        earliest = (paths.tx_delay.min(axis=1) + paths.rx_delay.min(axis=1) - band.start_time) * fs
+        latest = (paths.tx_delay.max(axis=1) + paths.rx_delay.max(axis=1) - band.start_time) * fs
+        recorded = (latest > -hw) & (earliest < band.n_samples + hw)  # patches with a pair in
+        paths = paths.select(recorded)
         scale = _fixed_point_scale(np.max(paths.gain_bound(), initial=0.0))
         if scale is None:
             return np.zeros((n_channels, band.n_grid), dtype=np.complex64)
@@ -296,11 +305,12 @@ class EchoSynthesizer:
         tx, rx = paths.scaled(self._demodulation(tx_u), scale * self._demodulation(rx_u)) \
             .kernel_factors()
         thread = to_jit(UInt32, np.arange(rx_u.size, dtype=np.uint32))
-        width = self._padded_width
+        origin, width = self._window(max(earliest[recorded].min(), -hw),
+                                     min(latest[recorded].max(), band.n_samples + hw))
         acc = _pair_kernel()(n_channels * width, thread, tx, rx, to_jit(Float64, tx_u),
-                             to_jit(Float64, rx_u), n_tx, n_rx, width, hw, 1.0 / self.sigma**2,
-                             band.n_samples)
-        return _folded(acc, scale, n_channels, band.n_grid, 2 * hw)
+                             to_jit(Float64, rx_u), n_tx, n_rx, width,
+                             dr.opaque(Int64, -origin), hw, 1.0 / self.sigma**2, band.n_samples)
+        return _folded(acc, scale, n_channels, band.n_grid, origin)
 
     def analytic(self, paths: Paths, n_channels: int, waveform=None) -> np.ndarray:
         """Noiseless :meth:`Band.to_analytic` recordings (n_channels, n_samples) of paths driven
