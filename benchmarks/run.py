@@ -53,7 +53,7 @@ STAGES = (
     ("rest of the trace (per-hit NumPy)", [("tracer.py", "trace_many")],
      [("tracer.py", "_cast"), ("tracer.py", "_visibility"),
       ("element_factors.py", "element_factors")]),
-    ("narrow-band merge kernel", [("hitpaths.py", "narrowband_many")], []),
+    ("narrow-band merge kernel", [("hitpaths.py", "merged")], []),
     ("gridding kernel", [("synthesis.py", "impulse_grid")], []),
     ("synthesis FFTs and filters",
      [("synthesis.py", "groups_spectrum"), ("band.py", "to_samples")],

@@ -30,7 +30,7 @@ import scipy.fft as sfft
 from mitsonar.jit import backend, to_jit
 from mitsonar.physics.waveforms import phasor
 from mitsonar.signal.band import Band, Recording
-from mitsonar.trace.hitpaths import HitPaths, pair_gain
+from mitsonar.trace.hitpaths import HitPaths, MergedHits, pair_gain
 from mitsonar.trace.paths import Paths
 
 
@@ -100,16 +100,19 @@ def _spread_kernel():
 
     Arguments: the flat grid's size, positions (M,) [samples], row offsets (M,) (of ``_spread``),
     (re, im) gains, None or (re, im, carrier - f_d [rad/s]) of the first-order terms,
-    the shift f_d [cycles per sample], half_width [taps], 1/sigma^2, fs/sigma^2. Returns the
-    Int64 grid of interleaved (re, im). (Each grid size is a separate recording: the grids are made inside, as
-    scatter targets passed in would be replayed at the recorded size.)
+    the shift f_d [cycles per sample], half_width [taps], 1/sigma^2, fs/sigma^2, a mask of the
+    paths to spread (or True). Returns the Int64 grid of interleaved (re, im). (Each grid size
+    is a separate recording: the grids are made inside, as scatter targets passed in would be
+    replayed at the recorded size.)
     """
     import drjit as dr
     Int64 = backend().Int64
 
-    def spread(size, pos, row, gain, first_order, shift, half_width, inv_var, rate_inv_var):
+    def spread(size, pos, row, gain, first_order, shift, half_width, inv_var, rate_inv_var,
+               active):
         acc = dr.zeros(Int64, 2 * size)
-        _spread(acc, pos, row, gain, first_order, shift, half_width, inv_var, rate_inv_var)
+        _spread(acc, pos, row, gain, first_order, shift, half_width, inv_var, rate_inv_var,
+                active)
         return acc
 
     # One recording per grid size and kernel shape (a few per synthesizer; sessions that build
@@ -210,7 +213,8 @@ class EchoSynthesizer:
         waveform = self.band.pulse if waveform is None else waveform
         tones = getattr(waveform, "parts", (waveform,))
         centres = [self.band.band_moments(t)[0] for t in tones]
-        return list(zip(paths.narrowband_many(centres), tones))
+        merge = paths.merged if isinstance(paths, HitPaths) else paths.narrowband_many
+        return list(zip(merge(centres), tones))
 
     def impulse_grid(self, paths: Paths | HitPaths, n_channels: int) -> np.ndarray:
         """Spread paths, shifted down by the band centre f_d (:attr:`Band.shift_bin`), onto the
@@ -233,6 +237,8 @@ class EchoSynthesizer:
         """
         if isinstance(paths, HitPaths):
             return self._pair_grid(paths, n_channels)
+        if isinstance(paths, MergedHits):
+            return self._merged_grid(paths, n_channels)
         import drjit as dr
         Float64, Int64 = backend().Float64, backend().Int64
 
@@ -262,7 +268,40 @@ class EchoSynthesizer:
         acc = _spread_kernel()(n_channels * width, to_jit(Float64, u),
                                to_jit(Int64, channel * width - origin), gains, first_order,
                                dr.opaque(Float64, band.shift_bin / band.n_grid), hw, inv_var,
-                               fs * inv_var)
+                               fs * inv_var, True)
+        return _folded(acc, scale, n_channels, band.n_grid, origin)
+
+    def _merged_grid(self, paths: MergedHits, n_channels: int) -> np.ndarray:
+        """:meth:`impulse_grid` of narrow-band merged paths held as Dr.Jit arrays."""
+        import drjit as dr
+        Float64, Int64 = backend().Float64, backend().Int64
+
+        band = self.band
+        fs, hw, inv_var = band.sample_rate, self.half_width, 1.0 / self.sigma**2
+        if len(paths) == 0:
+            return np.zeros((n_channels, band.n_grid), dtype=np.complex64)
+        u = (paths.centre + (paths.offset - band.start_time)) * fs
+        keep = (u > -hw) & (u < band.n_samples + hw)
+        omega = 2 * np.pi * (paths.frequency - band.fft_frequencies[band.shift_bin])  # [rad/s]
+        (a_re, a_im), (b_re, b_im) = paths.gain, paths.first_order
+        bound = dr.select(keep, dr.sqrt(a_re * a_re + a_im * a_im)  # as for flat paths
+                          + dr.sqrt(b_re * b_re + b_im * b_im)
+                          * float(abs(omega) + fs * (hw + 1) * inv_var), 0.0)
+        first, last, peak = (float(x[0]) for x in (dr.min(dr.select(keep, u, np.inf)),
+                                                    dr.max(dr.select(keep, u, -np.inf)),
+                                                    dr.max(bound)))
+        scale = _fixed_point_scale(peak)
+        if scale is None:
+            return np.zeros((n_channels, band.n_grid), dtype=np.complex64)
+        if dr.max(paths.channel)[0] >= n_channels:
+            raise ValueError(f"path channel out of range 0..{n_channels - 1}")
+        origin, width = self._window(first, last)
+        gains = (Float64(a_re) * scale, Float64(a_im) * scale)
+        first_order = (Float64(b_re) * scale, Float64(b_im) * scale, dr.opaque(Float64, omega))
+        acc = _spread_kernel()(n_channels * width, u, Int64(paths.channel) * width - origin,
+                               gains, first_order,
+                               dr.opaque(Float64, band.shift_bin / band.n_grid), hw, inv_var,
+                               fs * inv_var, keep)
         return _folded(acc, scale, n_channels, band.n_grid, origin)
 
     def _window(self, first: float, last: float) -> tuple[int, int]:
@@ -335,11 +374,11 @@ class EchoSynthesizer:
             by_waveform.setdefault(band.pulse if waveform is None else waveform, []).append(paths)
         spectrum = np.zeros((n_channels, len(band.frequencies)), complex)
         for waveform, parts in by_waveform.items():
-            factored = [p for p in parts if isinstance(p, HitPaths)]
-            flat = [p for p in parts if not isinstance(p, HitPaths)]
-            grid = sum(self.impulse_grid(kind, n_channels) for kind in
-                       ([HitPaths.concatenate(factored)] if factored else [])
-                       + ([Paths.concatenate(flat)] if flat else []))
+            kinds: dict = {}  # each kind of paths (and merge frequency) gridded by its kernel
+            for p in parts:
+                kinds.setdefault((type(p), getattr(p, "frequency", None)), []).append(p)
+            grid = sum(self.impulse_grid(kind.concatenate(same), n_channels)
+                       for (kind, _), same in kinds.items())
             spectrum += sfft.fft(grid, axis=-1, workers=-1)[:, band.grid_bins] \
                 * (band.system_spectrum(waveform)[band.bins] * self._deconvolution)
         return spectrum

@@ -174,12 +174,15 @@ class HitPaths:
     def narrowband_many(self, frequencies) -> list[Paths]:
         """:meth:`narrowband` about each of ``frequencies`` [Hz] (an OFDM code's tones), in one
         kernel: the element-pair gains are formed once for all of them."""
-        Float32, UInt32 = backend().Float32, backend().UInt32
+        return [merged.paths for merged in self.merged(frequencies)]
+
+    def merged(self, frequencies) -> list["MergedHits"]:
+        """:meth:`narrowband_many` as it leaves the merge kernel: Dr.Jit arrays, not copied
+        into NumPy until asked for (the synthesizer grids them as they are)."""
+        Float32, Float64, UInt32 = backend().Float32, backend().Float64, backend().UInt32
 
         n_tx, n_rx = self.elements
         n_hits = len(self.tx_delay)
-        if n_hits == 0:
-            return [Paths.empty() for _ in frequencies]
         # Transmit delays relative to their patch mean (|tau| <~ 0.2 ms): exact in single precision.
         tx_mean = self.tx_delay.mean(axis=1, keepdims=True)
         tx, rx = self.kernel_factors()
@@ -188,20 +191,87 @@ class HitPaths:
         omegas = [dr.opaque(Float32, -2.0 * np.pi * f) for f in frequencies]
         group = next(g for g in range(min(MERGE_GROUP, n_rx), 0, -1) if n_rx % g == 0)
         # Thread indices passed in: a size computed inside a frozen function is fixed when traced.
-        thread = to_jit(UInt32, np.arange(n_hits * n_rx // group, dtype=np.uint32))
-        outputs = _merge_kernel()(thread, tx, rx, omegas, n_tx, n_rx, group)
+        if n_hits == 0:
+            return [MergedHits((Float32(), Float32()), (Float32(), Float32()), Float64(),
+                               UInt32(), np.zeros(0, int), float(f)) for f in frequencies]
+        thread = np.arange(n_hits * n_rx // group, dtype=np.uint32)
+        outputs = _merge_kernel()(to_jit(UInt32, thread), tx, rx, omegas, n_tx, n_rx, group)
+        # Thread t's output j is the path of flat (patch, element) t * group + j: the outputs
+        # are kept in that order, j after j.
+        element = (thread[None, :] * group + np.arange(group)[:, None]).ravel()
 
-        def per_pair(k: int) -> np.ndarray:
-            """Output k of every thread's receive elements as (H x N_rx,), (patch, element) order:
-            thread t serves elements t * group + (0 .. group - 1) of the flat order."""
-            return np.stack([out[k].numpy() for out in outputs], axis=-1).ravel()
+        def joined(k: int):
+            return dr.concat([out[k] for out in outputs]) if group > 1 else outputs[0][k]
 
-        centre = (self.rx_delay + tx_mean).ravel() + per_pair(0)
-        channel = np.tile(np.arange(n_rx), n_hits)
-        return [Paths(per_pair(k).astype(float) + 1j * per_pair(k + 1), centre, channel,
-                      first_order=per_pair(k + 2).astype(float) + 1j * per_pair(k + 3),
-                      carrier=float(frequency))
+        centre = to_jit(Float64, (self.rx_delay + tx_mean).ravel()[element]) \
+            + Float64(joined(0))
+        channel = to_jit(UInt32, element % n_rx)
+        return [MergedHits((joined(k), joined(k + 1)), (joined(k + 2), joined(k + 3)), centre,
+                           channel, element, float(frequency))
                 for k, frequency in zip(range(1, 4 * len(frequencies), 4), frequencies)]
+
+
+@dataclass(frozen=True, eq=False)
+class MergedHits:
+    """Narrow-band merged paths (:meth:`HitPaths.merged`) about one frequency, one per patch and
+    receive element, as Dr.Jit arrays: a :class:`Paths` whose arrays stay where the merge
+    kernel left them until the synthesizer grids them.
+
+    Attributes:
+        gain: (re, im) Float32 arrays (M,) of the merged gains a [Pa].
+        first_order: (re, im) Float32 arrays (M,) of the first-order gains b [Pa s].
+        centre: Float64 (M,) delays [s], before ``offset``.
+        channel: UInt32 (M,) receive element index.
+        element: (M,) NumPy index of each path in (patch, receive element) order.
+        frequency: the merge's centre, the carrier of the first-order terms [Hz].
+        offset: added to every delay [s] (:meth:`delayed`).
+    """
+
+    gain: tuple
+    first_order: tuple
+    centre: object
+    channel: object
+    element: np.ndarray
+    frequency: float
+    offset: float = 0.0
+
+    @classmethod
+    def concatenate(cls, parts) -> "MergedHits":
+        """The paths of all ``parts``, merged about the same frequency."""
+        parts = list(parts)
+        if len({p.frequency for p in parts}) != 1:
+            raise ValueError("MergedHits.concatenate: parts merged about different frequencies")
+        parts = [p for p in parts if len(p)] or parts[:1]
+        if len(parts) == 1:
+            return parts[0]
+
+        def joined(arrays):
+            return dr.concat(list(arrays))
+
+        starts = np.cumsum([0] + [len(p) for p in parts[:-1]])
+        return cls(tuple(joined(p.gain[k] for p in parts) for k in range(2)),
+                   tuple(joined(p.first_order[k] for p in parts) for k in range(2)),
+                   joined(p.centre + p.offset for p in parts),
+                   joined(p.channel for p in parts),
+                   np.concatenate([p.element + start for p, start in zip(parts, starts)]),
+                   parts[0].frequency)
+
+    def __len__(self) -> int:
+        return len(self.element)
+
+    def delayed(self, seconds: float) -> "MergedHits":
+        """The same paths ``seconds`` [s] later."""
+        return replace(self, offset=self.offset + seconds)
+
+    @cached_property
+    def paths(self) -> Paths:
+        """These paths as :class:`Paths`, in (patch, receive element) order."""
+        order = np.argsort(self.element, kind="stable")
+        values = [x.numpy()[order] for x in (*self.gain, *self.first_order, self.centre)]
+        return Paths(values[0].astype(float) + 1j * values[1], values[4] + self.offset,
+                     self.channel.numpy()[order].astype(int),
+                     first_order=values[2].astype(float) + 1j * values[3],
+                     carrier=self.frequency)
 
 
 #: Receive elements per thread of the merge kernel: each thread loads its patch's transmit factors
