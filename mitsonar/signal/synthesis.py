@@ -278,30 +278,25 @@ class EchoSynthesizer:
 
         band = self.band
         fs, hw, inv_var = band.sample_rate, self.half_width, 1.0 / self.sigma**2
-        if len(paths) == 0:
+        if paths.receivers > n_channels:
+            raise ValueError(f"path channel out of range 0..{n_channels - 1}")
+        first, last = ((t + paths.offset - band.start_time) * fs for t in paths.span)
+        omega = 2 * np.pi * (paths.frequency - band.fft_frequencies[band.shift_bin])  # [rad/s]
+        # The bound of flat paths' (impulse_grid), from the merge's bounds on |a| and |b|.
+        scale = _fixed_point_scale(paths.peaks[0] + paths.peaks[1]
+                                   * (abs(omega) + fs * (hw + 1) * inv_var))
+        if len(paths) == 0 or scale is None or last <= -hw or first >= band.n_samples + hw:
             return np.zeros((n_channels, band.n_grid), dtype=np.complex64)
         u = (paths.centre + (paths.offset - band.start_time)) * fs
-        keep = (u > -hw) & (u < band.n_samples + hw)
-        omega = 2 * np.pi * (paths.frequency - band.fft_frequencies[band.shift_bin])  # [rad/s]
         (a_re, a_im), (b_re, b_im) = paths.gain, paths.first_order
-        bound = dr.select(keep, dr.sqrt(a_re * a_re + a_im * a_im)  # as for flat paths
-                          + dr.sqrt(b_re * b_re + b_im * b_im)
-                          * float(abs(omega) + fs * (hw + 1) * inv_var), 0.0)
-        first, last, peak = (float(x[0]) for x in (dr.min(dr.select(keep, u, np.inf)),
-                                                    dr.max(dr.select(keep, u, -np.inf)),
-                                                    dr.max(bound)))
-        scale = _fixed_point_scale(peak)
-        if scale is None:
-            return np.zeros((n_channels, band.n_grid), dtype=np.complex64)
-        if dr.max(paths.channel)[0] >= n_channels:
-            raise ValueError(f"path channel out of range 0..{n_channels - 1}")
+        first, last = max(first, -hw), min(last, band.n_samples + hw)
         origin, width = self._window(first, last)
         gains = (Float64(a_re) * scale, Float64(a_im) * scale)
         first_order = (Float64(b_re) * scale, Float64(b_im) * scale, dr.opaque(Float64, omega))
         acc = _spread_kernel()(n_channels * width, u, Int64(paths.channel) * width - origin,
                                gains, first_order,
                                dr.opaque(Float64, band.shift_bin / band.n_grid), hw, inv_var,
-                               fs * inv_var, keep)
+                               fs * inv_var, (u > -hw) & (u < band.n_samples + hw))
         return _folded(acc, scale, n_channels, band.n_grid, origin)
 
     def _window(self, first: float, last: float) -> tuple[int, int]:

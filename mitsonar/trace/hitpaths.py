@@ -183,6 +183,10 @@ class HitPaths:
 
         n_tx, n_rx = self.elements
         n_hits = len(self.tx_delay)
+        if n_hits == 0:
+            return [MergedHits((Float32(), Float32()), (Float32(), Float32()), Float64(),
+                               UInt32(), np.zeros(0, int), float(f), n_rx, (0.0, 0.0), (0.0, 0.0))
+                    for f in frequencies]
         # Transmit delays relative to their patch mean (|tau| <~ 0.2 ms): exact in single precision.
         tx_mean = self.tx_delay.mean(axis=1, keepdims=True)
         tx, rx = self.kernel_factors()
@@ -191,9 +195,6 @@ class HitPaths:
         omegas = [dr.opaque(Float32, -2.0 * np.pi * f) for f in frequencies]
         group = next(g for g in range(min(MERGE_GROUP, n_rx), 0, -1) if n_rx % g == 0)
         # Thread indices passed in: a size computed inside a frozen function is fixed when traced.
-        if n_hits == 0:
-            return [MergedHits((Float32(), Float32()), (Float32(), Float32()), Float64(),
-                               UInt32(), np.zeros(0, int), float(f)) for f in frequencies]
         thread = np.arange(n_hits * n_rx // group, dtype=np.uint32)
         outputs = _merge_kernel()(to_jit(UInt32, thread), tx, rx, omegas, n_tx, n_rx, group)
         # Thread t's output j is the path of flat (patch, element) t * group + j: the outputs
@@ -206,8 +207,14 @@ class HitPaths:
         centre = to_jit(Float64, (self.rx_delay + tx_mean).ravel()[element]) \
             + Float64(joined(0))
         channel = to_jit(UInt32, element % n_rx)
+        # A merged path's delay lies within its pairs' (its centre is their weighted mean);
+        # |a| <= sum_i |g_i| and |b| <= sum_i |g_i| |tau_i - m|, m between the tau_i.
+        span = (float(np.min(self.tx_delay.min(axis=1) + self.rx_delay.min(axis=1))),
+                float(np.max(self.tx_delay.max(axis=1) + self.rx_delay.max(axis=1))))
+        bound = n_tx * self.gain_bound()
+        peaks = (float(bound.max()), float(np.max(bound * np.ptp(self.tx_delay, axis=1))))
         return [MergedHits((joined(k), joined(k + 1)), (joined(k + 2), joined(k + 3)), centre,
-                           channel, element, float(frequency))
+                           channel, element, float(frequency), n_rx, span, peaks)
                 for k, frequency in zip(range(1, 4 * len(frequencies), 4), frequencies)]
 
 
@@ -224,6 +231,9 @@ class MergedHits:
         channel: UInt32 (M,) receive element index.
         element: (M,) NumPy index of each path in (patch, receive element) order.
         frequency: the merge's centre, the carrier of the first-order terms [Hz].
+        receivers: N_rx; channels are 0 .. N_rx - 1.
+        span: (earliest, latest) delay [s] a path can have, before ``offset``.
+        peaks: bounds on |a| [Pa] and |b| [Pa s] over the paths.
         offset: added to every delay [s] (:meth:`delayed`).
     """
 
@@ -233,6 +243,9 @@ class MergedHits:
     channel: object
     element: np.ndarray
     frequency: float
+    receivers: int
+    span: tuple[float, float]
+    peaks: tuple[float, float]
     offset: float = 0.0
 
     @classmethod
@@ -254,7 +267,10 @@ class MergedHits:
                    joined(p.centre + p.offset for p in parts),
                    joined(p.channel for p in parts),
                    np.concatenate([p.element + start for p, start in zip(parts, starts)]),
-                   parts[0].frequency)
+                   parts[0].frequency, max(p.receivers for p in parts),
+                   (min(p.span[0] + p.offset for p in parts),
+                    max(p.span[1] + p.offset for p in parts)),
+                   tuple(max(p.peaks[k] for p in parts) for k in range(2)))
 
     def __len__(self) -> int:
         return len(self.element)
