@@ -209,12 +209,21 @@ class EchoSynthesizer:
         """(paths, waveform) groups that synthesise ``paths`` (:class:`Paths` with per-hit blocks,
         or :class:`~mitsonar.trace.hitpaths.HitPaths`) driven by ``waveform`` with each
         hit's transmit elements merged (``paths.narrowband``) about the recorded centre
-        frequency of each tone of the waveform (an OFDM code's ``parts``, else itself)."""
-        waveform = self.band.pulse if waveform is None else waveform
+        frequency of each tone of the waveform (an OFDM code's ``parts``, else itself).
+
+        Factored paths are merged as :class:`~mitsonar.trace.hitpaths.MergedHits`, leaving out
+        the patches whose every pair arrives after the recording's end (more than half of an
+        office ping's): merged paths are only ever delayed later (an OFDM beam fired later in
+        its cycle), which cannot bring them back into the recording."""
+        band = self.band
+        waveform = band.pulse if waveform is None else waveform
         tones = getattr(waveform, "parts", (waveform,))
-        centres = [self.band.band_moments(t)[0] for t in tones]
-        merge = paths.merged if isinstance(paths, HitPaths) else paths.narrowband_many
-        return list(zip(merge(centres), tones))
+        centres = [band.band_moments(t)[0] for t in tones]
+        if not isinstance(paths, HitPaths):
+            return list(zip(paths.narrowband_many(centres), tones))
+        end = band.start_time + (band.n_samples + self.half_width) / band.sample_rate
+        late = paths.tx_delay.min(axis=1) + paths.rx_delay.min(axis=1) >= end
+        return list(zip((paths.select(~late) if late.any() else paths).merged(centres), tones))
 
     def impulse_grid(self, paths: Paths | HitPaths, n_channels: int) -> np.ndarray:
         """Spread paths, shifted down by the band centre f_d (:attr:`Band.shift_bin`), onto the

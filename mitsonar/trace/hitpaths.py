@@ -276,7 +276,10 @@ class MergedHits:
         return len(self.element)
 
     def delayed(self, seconds: float) -> "MergedHits":
-        """The same paths ``seconds`` [s] later."""
+        """The same paths ``seconds`` [s] later (>= 0: the synthesizer leaves out the patches
+        that arrive after its recording, which an earlier firing would bring back)."""
+        if not seconds >= 0:
+            raise ValueError(f"MergedHits.delayed: seconds must be >= 0, got {seconds}")
         return replace(self, offset=self.offset + seconds)
 
     @cached_property

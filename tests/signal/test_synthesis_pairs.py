@@ -87,3 +87,19 @@ def test_merged_hits_grid_as_their_paths(walls):
     merged = synth.groups_spectrum(groups, 25)
     flat = synth.groups_spectrum([(p.paths, tone) for p, tone in groups], 25)
     assert _relative_difference(merged, flat) < 1e-6
+
+
+def test_patches_after_the_recording_are_left_out_of_the_merge(walls):
+    """A tilted wall reaching past the recording's end (4 m range; half its patches, measured
+    594 of 1144): the merge leaves them out and the synthesis is that of every patch merged and
+    gridded; merged paths refuse to be fired earlier (which would need the patches left out)."""
+    sonar = mitsonar.Sonar(walls[1], mitsonar.SonarConfig(noise_rms=0.0, max_range=4.0))
+    synth, pulse = sonar.synthesizer, sonar.config.pulse
+    hits = sonar.tracer.trace(IDENTITY, direction_from_fov_angles(0.0, 0.0)).paths
+    groups = sonar.echo_groups(hits, pulse)
+    kept = sum(len(p) for p, _ in groups) // 25
+    assert 0.1 < kept / len(hits.tx_delay) < 0.9
+    every = synth.group_spectrum(hits.narrowband(groups[0][0].frequency), pulse, 25)
+    assert _relative_difference(synth.groups_spectrum(groups, 25), every) < 1e-6
+    with pytest.raises(ValueError, match="seconds must be >= 0"):
+        groups[0][0].delayed(-1e-3)
