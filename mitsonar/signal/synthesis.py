@@ -15,6 +15,12 @@ kernel taps + one FFT per channel, instead of paths x samples for the direct sum
 the tests as the oracle).
 Fractional delays are exact up to the stated tolerance, far below one sample.
 
+Paths come in three kinds, each with its gridding kernel (the taps are common, :func:`_spread`):
+flat :class:`~mitsonar.trace.paths.Paths`; patches' element pairs in factored form
+(:class:`~mitsonar.trace.hitpaths.HitPaths`), gridded pair by pair from their factors; and
+narrow-band merged ones (:class:`~mitsonar.trace.hitpaths.MergedHits`), straight from the merge
+kernel.
+
 Recordings, real or complex baseband, and the spectra on the band that synthesis produces are
 those of a :class:`~mitsonar.signal.band.Band` (its module docstring), which also holds the
 system spectra; the synthesizer adds the gridding kernel and the receiver noise.
@@ -237,7 +243,8 @@ class EchoSynthesizer:
         :class:`~mitsonar.trace.hitpaths.HitPaths` are gridded pair by pair from their factors
         (:func:`_pair_kernel`), never expanded into arrays of every pair.
 
-        Runs as one Dr.Jit kernel (a scatter-add per kernel tap), compiled once and reused.
+        Runs as one Dr.Jit kernel (an add of a (re, im) packet per kernel tap into a copy of the
+        grid per core, :data:`GRID_REDUCE`), compiled once per grid width and reused.
         Contributions are accumulated as 64-bit fixed-point integers, whose sum does not depend
         on the order the threads add them in: the same paths give bit-identical recordings. The
         grid is returned in single precision (complex64: its rounding, ~6e-8 of the largest

@@ -5,11 +5,14 @@ paths (~900 000 for a standard ping). Most of each path's gain factorises into a
 receive part; only the patch integral couples them (its phase gradient is the sum of both
 directions). :class:`HitPaths` stores the factors, (H, N_tx) and (H, N_rx) arrays, and
 
-* expands them into :class:`~mitsonar.signal.synthesis.Paths` only when every pair is synthesised
-  (``fine`` fidelity, broadband transducers, the tests' references);
+* gives each pair's gain inside Dr.Jit kernels (:func:`pair_gain`): where every pair is
+  synthesised (``fine`` fidelity, broadband transducers) the synthesizer grids them from the
+  factors; :attr:`HitPaths.paths` expands them into flat :class:`~mitsonar.trace.paths.Paths`
+  for references only;
 * merges each patch's transmit elements narrow-band (:meth:`HitPaths.narrowband`, the same merge
   as :meth:`Paths.narrowband`) in one fused Dr.Jit kernel, one thread per patch and group of
-  receive elements, without ever forming the H x N_tx x N_rx arrays.
+  receive elements, without ever forming the H x N_tx x N_rx arrays; the merged paths
+  (:class:`MergedHits`) stay Dr.Jit arrays until they are gridded.
 """
 
 from __future__ import annotations
