@@ -196,8 +196,9 @@ def main(argv=None) -> int:
                                band_floor=1e-5)
     u = dirs[len(dirs) // 2]
     paths = mitsonar.Sonar(sonar.scene, cfg).tracer.trace(pose, u).paths
-    reach = cfg.medium.speed_of_sound * np.min(paths.tx_delay, initial=0.0) + 1.0
-    cfg = replace(cfg, max_range=max(cfg.max_range, reach))
+    if len(paths.tx_delay):
+        reach = cfg.medium.speed_of_sound * paths.tx_delay.min() + 1.0
+        cfg = replace(cfg, max_range=max(cfg.max_range, reach))
     paper = mitsonar.Sonar(sonar.scene, cfg)
     t_fast, fast = _timed(lambda: paper.synthesizer.synthesize(paths, 25), repeat=3)
     t0 = time.perf_counter()
