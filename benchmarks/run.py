@@ -23,6 +23,7 @@ import numpy as np
 
 import mitsonar
 from mitsonar.evaluation.fidelity import fidelity
+from mitsonar.physics.transducer import Transducer
 from mitsonar.scene.rays import rays
 from mitsonar.sensors.ofdm_sonar import OfdmSonar
 from mitsonar.evaluation.reference import direct_summation
@@ -34,6 +35,11 @@ REAL_FRAME_S = 0.2085  # one 13 x 9 OFDM frame (the paper)
 PING_GOAL = 1000 * REAL_PING_S
 FRAME_GOAL = 5 * REAL_FRAME_S
 ROOT = Path(__file__).resolve().parents[1]
+#: The full-rate reference: every element pair, real recordings at 400 kHz, band floor 1e-5.
+FULL_RATE = dict(sample_rate=400e3, narrowband_bandwidth=0.0, baseband=False, band_floor=1e-5)
+#: Broadband transducers, as ``mitsonar map repeated --broadband`` chooses them: every element
+#: pair synthesised (no narrow-band merge).
+BROADBAND = Transducer(bandwidth_6db=20e3)
 
 
 def _timed(fn, repeat: int = 1):
@@ -53,7 +59,7 @@ STAGES = (
     ("rest of the trace (per-hit NumPy)", [("tracer.py", "trace_many")],
      [("tracer.py", "_cast"), ("tracer.py", "_visibility"),
       ("element_factors.py", "element_factors")]),
-    ("narrow-band merge kernel", [("hitpaths.py", "narrowband_many")], []),
+    ("narrow-band merge kernel", [("hitpaths.py", "merged")], []),
     ("gridding kernel", [("synthesis.py", "impulse_grid")], []),
     ("synthesis FFTs and filters",
      [("synthesis.py", "groups_spectrum"), ("band.py", "to_samples")],
@@ -163,30 +169,37 @@ def main(argv=None) -> int:
     # only the synthesis differs (same rays, same diffuse phases).
     quiet = replace(sonar.config, noise_rms=0.0)
     fast = mitsonar.Sonar(sonar.scene, quiet)
-    full = mitsonar.Sonar(sonar.scene, replace(quiet, sample_rate=400e3, narrowband_bandwidth=0.0,
-                                               baseband=False, band_floor=1e-5))
+    full = mitsonar.Sonar(sonar.scene, replace(quiet, **FULL_RATE))
     report_depths(fast.scan(pose, dirs).depth, full.scan(pose, dirs).depth)
 
-    ofdm = OfdmSonar(sonar)
-    schedule = ofdm.schedule(sonar.fov_grid(np.radians(10.0 if args.quick else 5.0)))
-    t_frame, _ = _timed(lambda: ofdm.frame(schedule, lambda t: pose))
-    report(f"OFDM frames/s ({len(schedule.directions)} beams)", 1 / t_frame, "frames/s",
-           1 / REAL_FRAME_S * 117 / len(schedule.directions), "real sensor (per beam count)",
-           goal=FRAME_GOAL)
-    print("  where the time goes (cProfile of the frame, inclusive times per beam):")
-    profiled += profile(lambda: ofdm.frame(schedule, lambda t: pose), len(schedule.directions), 1,
-                        "frames/s")
-    report_depths(OfdmSonar(fast).frame(schedule, lambda t: pose).depth,
-                  OfdmSonar(full).frame(schedule, lambda t: pose).depth)
+    schedule = OfdmSonar(sonar).schedule(sonar.fov_grid(np.radians(10.0 if args.quick else 5.0)))
+    for name, config in (("", sonar.config),
+                         (", broadband", replace(sonar.config, transducer=BROADBAND))):
+        ofdm = OfdmSonar(mitsonar.Sonar(sonar.scene, config))
+        t_frame, _ = _timed(lambda: ofdm.frame(schedule, lambda t: pose))
+        report(f"OFDM frames/s ({len(schedule.directions)} beams{name})", 1 / t_frame, "frames/s",
+               1 / REAL_FRAME_S * 117 / len(schedule.directions), "real sensor (per beam count)",
+               goal=FRAME_GOAL)
+        print("  where the time goes (cProfile of the frame, inclusive times per beam):")
+        profiled += profile(lambda: ofdm.frame(schedule, lambda t: pose),
+                            len(schedule.directions), 1, "frames/s")
+        fast, full = (OfdmSonar(mitsonar.Sonar(sonar.scene, replace(config, noise_rms=0.0, **rate)))
+                      for rate in ({}, FULL_RATE))
+        report_depths(fast.frame(schedule, lambda t: pose).depth,
+                      full.frame(schedule, lambda t: pose).depth)
 
     # Fast synthesis vs the direct summation of (1)(3) on the same paths (paper model, ideal
-    # transducers, 400 kHz: both agree to ~2e-4 of the peak).
+    # transducers, 400 kHz: both agree to ~2e-4 of the peak), recorded to 1 m past the middle
+    # beam's nearest reflector (at least 3 m).
     cfg = mitsonar.SonarConfig(trace=mitsonar.TraceSettings(model="paper"), transducer_response=False,
                                sample_rate=400e3, noise_rms=0.0, max_range=3.0, baseband=False,
                                band_floor=1e-5)
-    paper = mitsonar.Sonar(sonar.scene, cfg)
     u = dirs[len(dirs) // 2]
-    paths = paper.tracer.trace(pose, u).paths
+    paths = mitsonar.Sonar(sonar.scene, cfg).tracer.trace(pose, u).paths
+    if len(paths.tx_delay):
+        reach = cfg.medium.speed_of_sound * paths.tx_delay.min() + 1.0
+        cfg = replace(cfg, max_range=max(cfg.max_range, reach))
+    paper = mitsonar.Sonar(sonar.scene, cfg)
     t_fast, fast = _timed(lambda: paper.synthesizer.synthesize(paths, 25), repeat=3)
     t0 = time.perf_counter()
     slow = direct_summation(paths, cfg.pulse, 25, fast.times)

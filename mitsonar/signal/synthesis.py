@@ -15,6 +15,12 @@ kernel taps + one FFT per channel, instead of paths x samples for the direct sum
 the tests as the oracle).
 Fractional delays are exact up to the stated tolerance, far below one sample.
 
+Paths come in three kinds, each with its gridding kernel (the taps are common, :func:`_spread`):
+flat :class:`~mitsonar.trace.paths.Paths`; patches' element pairs in factored form
+(:class:`~mitsonar.trace.hitpaths.HitPaths`), gridded pair by pair from their factors; and
+narrow-band merged ones (:class:`~mitsonar.trace.hitpaths.MergedHits`), straight from the merge
+kernel.
+
 Recordings, real or complex baseband, and the spectra on the band that synthesis produces are
 those of a :class:`~mitsonar.signal.band.Band` (its module docstring), which also holds the
 system spectra; the synthesizer adds the gridding kernel and the receiver noise.
@@ -28,69 +34,153 @@ import numpy as np
 import scipy.fft as sfft
 
 from mitsonar.jit import backend, to_jit
+from mitsonar.physics.waveforms import phasor
 from mitsonar.signal.band import Band, Recording
+from mitsonar.trace.hitpaths import HitPaths, MergedHits, pair_gain
 from mitsonar.trace.paths import Paths
+
+
+#: The gridding kernels add into a copy of the grid per core, merged after (Dr.Jit's Expand
+#: reduction), each tap's (re, im) as one packet of two adjacent integers: measured on one
+#: beam's 4e5-1.9e6 element pairs (20 kHz transducers, 25 x 8 600 samples) 5x faster than two
+#: scatters per tap and 20x faster than atomic adds into one grid.
+GRID_REDUCE = "Expand"
+
+
+def _spread(acc, pos, row, gain, first_order, rotation, half_width: int, inv_var: float,
+            rate_inv_var: float, active=True):
+    """Inside a gridding kernel: add paths at positions ``pos`` [samples, Float64] with the
+    Gaussian kernel onto the Int64 fixed-point grid ``acc`` of interleaved (re, im) samples, at
+    sample ``row + floor(pos) + k`` for taps k in -half_width .. half_width (``row``: the path's
+    row start minus the row's first sample, :meth:`EchoSynthesizer._window`).
+
+    ``gain`` (re, im) is in grid units; ``first_order`` None or (re, im, carrier - f_d [rad/s])
+    (kernel derivative, see :meth:`EchoSynthesizer.impulse_grid`); ``rotation`` None or the
+    shift f_d [cycles per sample] to demodulate gains and first-order terms by
+    exp(-j 2 pi f_d pos); ``active`` masks paths out.
+    """
+    import drjit as dr
+    Float64, Int64, UInt32 = backend().Float64, backend().Int64, backend().UInt32
+    Array2i64 = backend().Array2i64
+
+    if rotation is not None:
+        cycles = rotation * pos
+        sin, cos = dr.sincos(-2 * np.pi * (cycles - dr.floor(cycles)))  # exp(-j 2 pi f_d tau)
+
+        def rotated(re, im):
+            return re * cos - im * sin, re * sin + im * cos
+
+        gain = rotated(*gain)
+        if first_order is not None:
+            first_order = rotated(*first_order[:2]) + (first_order[2],)
+    base = Int64(dr.floor(pos))
+    frac = pos - Float64(base)  # in [0, 1)
+    # Fast Gaussian gridding: g(k - frac) = exp(-k^2 / 2 sigma^2) exp(k frac / sigma^2)
+    # exp(-frac^2 / 2 sigma^2): two exponentials per path serve every tap k (powers of
+    # exp(frac / sigma^2) by multiplication; relative rounding ~1e-15 per tap).
+    common = dr.exp(-0.5 * inv_var * dr.square(frac))
+    growth = dr.exp(inv_var * frac)
+    power = {0: common}
+    for k in range(1, half_width + 1):
+        power[k] = power[k - 1] * growth
+        power[-k] = power[1 - k] / growth
+    mode = getattr(dr.ReduceMode, GRID_REDUCE)
+    for k in range(-half_width, half_width + 1):  # kernel taps (a fixed, small count)
+        weight = power[k] * float(np.exp(-0.5 * k * k * inv_var))
+        value_re, value_im = gain
+        if first_order is not None:  # b (j omega + fs x / sigma^2), x = k - frac
+            slope_re, slope_im, omega = first_order
+            x = rate_inv_var * (k - frac)
+            value_re = value_re + slope_re * x - slope_im * omega
+            value_im = value_im + slope_im * x + slope_re * omega
+        dr.scatter_reduce(dr.ReduceOp.Add, acc, Array2i64(Int64(dr.round(weight * value_re)),
+                                                          Int64(dr.round(weight * value_im))),
+                          UInt32(row + base + k), active=active, mode=mode)
 
 
 @cache
 def _spread_kernel():
-    """The gridding kernel of :meth:`EchoSynthesizer.impulse_grid`, frozen (``drjit.freeze``):
-    traced once per kernel shape, then replayed without Python tracing whatever the path count.
+    """The gridding kernel of :meth:`EchoSynthesizer.impulse_grid` for flat :class:`Paths`,
+    frozen (``drjit.freeze``): traced once per kernel shape, then replayed without Python tracing
+    whatever the path count.
 
-    Arguments: the flat grid's size, positions (M,) [samples], row offsets (M,) into the flat
-    grid, (re, im) gains, None or (re, im, carrier - f_d [rad/s]) of the first-order terms, the
-    shift f_d [cycles per sample], the grid's period n_grid [samples], half_width [taps],
-    1/sigma^2, fs/sigma^2. Returns the (re, im) Int64 grids. (Each grid size is a separate
-    recording: the grids are made inside, as scatter targets passed in would be replayed at the
-    recorded size.)
+    Arguments: the flat grid's size, positions (M,) [samples], row offsets (M,) (of ``_spread``),
+    (re, im) gains, None or (re, im, carrier - f_d [rad/s]) of the first-order terms,
+    the shift f_d [cycles per sample], half_width [taps], 1/sigma^2, fs/sigma^2, a mask of the
+    paths to spread (or True). Returns the Int64 grid of interleaved (re, im). (Each grid size
+    is a separate recording: the grids are made inside, as scatter targets passed in would be
+    replayed at the recorded size.)
     """
     import drjit as dr
-    Float64, Int64, UInt32 = backend().Float64, backend().Int64, backend().UInt32
+    Int64 = backend().Int64
 
-    def spread(size, pos, row, gain, first_order, shift, n_grid, half_width, inv_var, rate_inv_var):
-        acc = (dr.zeros(Int64, size), dr.zeros(Int64, size))
-        cycles = shift * pos
-        sin, cos = dr.sincos(-2 * np.pi * (cycles - dr.floor(cycles)))  # exp(-j 2 pi f_d tau)
-
-        def shifted(re, im):
-            return re * cos - im * sin, re * sin + im * cos
-
-        gain = shifted(*gain)
-        if first_order is not None:
-            first_order = shifted(*first_order[:2]) + (first_order[2],)
-        base = Int64(dr.floor(pos))
-        frac = pos - Float64(base)  # in [0, 1)
-        # Fast Gaussian gridding: g(k - frac) = exp(-k^2 / 2 sigma^2) exp(k frac / sigma^2)
-        # exp(-frac^2 / 2 sigma^2): two exponentials per path serve every tap k (powers of
-        # exp(frac / sigma^2) by multiplication; relative rounding ~1e-15 per tap).
-        common = dr.exp(-0.5 * inv_var * dr.square(frac))
-        growth = dr.exp(inv_var * frac)
-        power = {0: common}
-        for k in range(1, half_width + 1):
-            power[k] = power[k - 1] * growth
-            power[-k] = power[1 - k] / growth
-        for k in range(-half_width, half_width + 1):  # kernel taps (a fixed, small count)
-            weight = power[k] * float(np.exp(-0.5 * k * k * inv_var))
-            value_re, value_im = gain
-            if first_order is not None:  # b (j omega + fs x / sigma^2), x = k - frac
-                slope_re, slope_im, omega = first_order
-                x = rate_inv_var * (k - frac)
-                value_re = value_re + slope_re * x - slope_im * omega
-                value_im = value_im + slope_im * x + slope_re * omega
-            flat = UInt32(row + (base + (k + n_grid)) % n_grid)
-            # Plain atomic adds, not Dr.Jit's default for grids this small (a copy per core,
-            # merged after): measured faster for every preset (standard pings' merged paths
-            # 3.6 -> 2.4 ms, fine's element pairs 205 -> 131 ms, paper 16 -> 15 ms per ping);
-            # slower only where a few point reflectors put thousands of paths on the same
-            # samples at 400 kHz (the benchmark's direct-summation case: 2.5 -> 4.7 ms).
-            for part, value in zip(acc, (value_re, value_im)):
-                dr.scatter_reduce(dr.ReduceOp.Add, part, Int64(dr.round(weight * value)), flat,
-                                  mode=dr.ReduceMode.Direct)
+    def spread(size, pos, row, gain, first_order, shift, half_width, inv_var, rate_inv_var,
+               active):
+        acc = dr.zeros(Int64, 2 * size)
+        _spread(acc, pos, row, gain, first_order, shift, half_width, inv_var, rate_inv_var,
+                active)
         return acc
 
     # One recording per grid size and kernel shape (a few per synthesizer; sessions that build
     # several synthesizers, e.g. fidelity levels and OFDM, make dozens): not a re-tracing fault.
     return dr.freeze(spread, warn_after=256)
+
+
+@cache
+def _pair_kernel():
+    """The gridding kernel of :meth:`EchoSynthesizer.impulse_grid` for factored
+    :class:`~mitsonar.trace.hitpaths.HitPaths`, frozen: one thread per (patch, receive element)
+    forms the gains of its N_tx element pairs from the factors (:func:`pair_gain`, single
+    precision) and spreads them, so the H x N_tx x N_rx pairs never exist as arrays.
+
+    Arguments: the flat grid's size, thread indices 0 .. H x N_rx - 1, the 7 transmit and 7
+    receive factors (:meth:`HitPaths.kernel_factors`, already demodulated and in grid units),
+    transmit positions (H x N_tx,) and receive offsets (H x N_rx,) [samples] (a pair's position
+    is their sum), N_tx, N_rx, the row length, the rows' first sample (negated), half_width,
+    1/sigma^2, the recording's sample count. Returns the Int64 grid of interleaved (re, im).
+    """
+    import drjit as dr
+    Float32, Float64, Int64 = backend().Float32, backend().Float64, backend().Int64
+
+    def spread_pairs(size, thread, tx, rx, tx_pos, rx_pos, n_tx, n_rx, stride, row_offset,
+                     half_width, inv_var, n_samples):
+        acc = dr.zeros(Int64, 2 * size)
+        patch = thread // n_rx
+        row = Int64(thread - patch * n_rx) * stride + row_offset
+        rx_values = [dr.gather(Float32, x, thread) for x in rx]
+        rx_u = dr.gather(Float64, rx_pos, thread)
+        for i in range(n_tx):  # the patch's transmit elements (unrolled)
+            tx_values = [dr.gather(Float32, x, patch * n_tx + i) for x in tx]
+            gain = tuple(Float64(g) for g in pair_gain(tx_values, rx_values))
+            pos = dr.gather(Float64, tx_pos, patch * n_tx + i) + rx_u
+            _spread(acc, pos, row, gain, None, None, half_width, inv_var, 0.0,
+                    active=(pos > -half_width) & (pos < n_samples + half_width))
+        return acc
+
+    return dr.freeze(spread_pairs, warn_after=256)
+
+
+def _fixed_point_scale(peak: float) -> float | None:
+    """Scale of the grids' fixed point for contributions up to ``peak`` (None if 0): a quantum of
+    2^-36 of the largest one. Up to 2^25 terms of that size cannot overflow int64, and the
+    rounding (1.5e-11 relative per term) is far below the synthesis tolerance."""
+    return None if peak == 0.0 else 2.0 ** (36 - np.ceil(np.log2(peak)))
+
+
+def _folded(acc, scale: float, n_rows: int, n_grid: int, origin: int) -> np.ndarray:
+    """The (n_rows, n_grid) complex64 grid of a kernel's fixed-point rows of interleaved (re, im):
+    column c of a row holds sample (origin + c) modulo n_grid, added onto the period in
+    contiguous pieces (at most a few)."""
+    padded = acc.numpy().reshape(n_rows, -1, 2)
+    grid = np.zeros((n_rows, n_grid), dtype=np.complex64)
+    column = 0
+    while column < padded.shape[1]:
+        first = (origin + column) % n_grid
+        n = min(padded.shape[1] - column, n_grid - first)
+        piece = padded[:, column:column + n]
+        grid[:, first:first + n] += (piece[..., 0] + 1j * piece[..., 1]) * (1.0 / scale)
+        column += n
+    return grid
 
 
 class EchoSynthesizer:
@@ -125,13 +215,23 @@ class EchoSynthesizer:
         """(paths, waveform) groups that synthesise ``paths`` (:class:`Paths` with per-hit blocks,
         or :class:`~mitsonar.trace.hitpaths.HitPaths`) driven by ``waveform`` with each
         hit's transmit elements merged (``paths.narrowband``) about the recorded centre
-        frequency of each tone of the waveform (an OFDM code's ``parts``, else itself)."""
-        waveform = self.band.pulse if waveform is None else waveform
-        tones = getattr(waveform, "parts", (waveform,))
-        centres = [self.band.band_moments(t)[0] for t in tones]
-        return list(zip(paths.narrowband_many(centres), tones))
+        frequency of each tone of the waveform (an OFDM code's ``parts``, else itself).
 
-    def impulse_grid(self, paths: Paths, n_channels: int) -> np.ndarray:
+        Factored paths are merged as :class:`~mitsonar.trace.hitpaths.MergedHits`, leaving out
+        the patches whose every pair arrives after the recording's end (more than half of an
+        office ping's): merged paths are only ever delayed later (an OFDM beam fired later in
+        its cycle), which cannot bring them back into the recording."""
+        band = self.band
+        waveform = band.pulse if waveform is None else waveform
+        tones = getattr(waveform, "parts", (waveform,))
+        centres = [band.band_moments(t)[0] for t in tones]
+        if not isinstance(paths, HitPaths):
+            return list(zip(paths.narrowband_many(centres), tones))
+        end = band.start_time + (band.n_samples + self.half_width) / band.sample_rate
+        late = paths.tx_delay.min(axis=1) + paths.rx_delay.min(axis=1) >= end
+        return list(zip((paths.select(~late) if late.any() else paths).merged(centres), tones))
+
+    def impulse_grid(self, paths: Paths | HitPaths, n_channels: int) -> np.ndarray:
         """Spread paths, shifted down by the band centre f_d (:attr:`Band.shift_bin`), onto the
         (n_channels, n_grid) sample grid (at :attr:`Band.sample_rate`) with the Gaussian kernel
         g: bin m of the grid's FFT holds bin m + shift_bin of the spectrum, times the kernel's
@@ -139,49 +239,128 @@ class EchoSynthesizer:
 
         A first-order term b about f_c goes onto the same grid with the kernel's derivative,
         b (j 2 pi (f_c - f_d) g(x) - fs g'(x)), whose transform is -j 2 pi (f - f_c) times g's:
-        one grid and one FFT carry both terms of a narrow-band merged path.
+        one grid and one FFT carry both terms of a narrow-band merged path. Factored
+        :class:`~mitsonar.trace.hitpaths.HitPaths` are gridded pair by pair from their factors
+        (:func:`_pair_kernel`), never expanded into arrays of every pair.
 
-        Runs as one Dr.Jit LLVM kernel (a scatter-add per kernel tap), compiled once and reused.
+        Runs as one Dr.Jit kernel (an add of a (re, im) packet per kernel tap into a copy of the
+        grid per core, :data:`GRID_REDUCE`), compiled once per grid width and reused.
         Contributions are accumulated as 64-bit fixed-point integers, whose sum does not depend
         on the order the threads add them in: the same paths give bit-identical recordings. The
         grid is returned in single precision (complex64: its rounding, ~6e-8 of the largest
-        sample, is far below the band floor; its FFTs take half the time).
+        sample, is far below the band floor; its FFTs take half the time). Paths whose kernel
+        lies wholly outside the recording are left out.
         """
+        if isinstance(paths, HitPaths):
+            return self._pair_grid(paths, n_channels)
+        if isinstance(paths, MergedHits):
+            return self._merged_grid(paths, n_channels)
         import drjit as dr
         Float64, Int64 = backend().Float64, backend().Int64
 
         band = self.band
-        fs, n_grid = band.sample_rate, band.n_grid
+        fs, hw = band.sample_rate, self.half_width
         u = (np.asarray(paths.delay) - band.start_time) * fs
-        keep = (u > -self.half_width) & (u < band.n_samples + self.half_width)
+        keep = (u > -hw) & (u < band.n_samples + hw)
         channel = np.asarray(paths.channel)[keep]
         if len(channel) and (channel.min() < 0 or channel.max() >= n_channels):
             raise ValueError(f"path channel out of range 0..{n_channels - 1}")
         gain = np.asarray(paths.gain)[keep]
         inv_var = 1.0 / self.sigma**2
         omega = 2 * np.pi * (paths.carrier - band.fft_frequencies[band.shift_bin])  # [rad/s]
-        # |j omega g(x) - fs g'(x)| <= |omega| + fs |x| / sigma^2 over the taps, |x| <= half_width + 1.
+        # |j omega g(x) - fs g'(x)| <= |omega| + fs |x| / sigma^2 over the taps, |x| <= hw + 1.
         slope = None if paths.first_order is None else np.asarray(paths.first_order)[keep]
         bound = np.abs(gain) if slope is None else \
-            np.abs(gain) + np.abs(slope) * (abs(omega) + fs * (self.half_width + 1) * inv_var)
-        peak = float(np.max(bound, initial=0.0))
-        if len(channel) == 0 or peak == 0.0:
-            return np.zeros((n_channels, n_grid), dtype=np.complex64)
-        # Quantum 2^-36 of the largest contribution: up to 2^25 terms of that size cannot overflow
-        # int64, and the rounding (1.5e-11 relative per term) is far below the synthesis tolerance.
-        scale = 2.0 ** (36 - np.ceil(np.log2(peak)))
+            np.abs(gain) + np.abs(slope) * (abs(omega) + fs * (hw + 1) * inv_var)
+        scale = _fixed_point_scale(np.max(bound, initial=0.0))
+        if len(channel) == 0 or scale is None:
+            return np.zeros((n_channels, band.n_grid), dtype=np.complex64)
         first_order = None if slope is None else (
             to_jit(Float64, slope.real * scale), to_jit(Float64, slope.imag * scale),
             dr.opaque(Float64, omega))  # a variable, not a literal: one kernel for all carriers
         gains = (to_jit(Float64, gain.real * scale), to_jit(Float64, gain.imag * scale))
-        acc = _spread_kernel()(n_channels * n_grid, to_jit(Float64, u[keep]),
-                               to_jit(Int64, channel) * n_grid, gains, first_order,
-                               dr.opaque(Float64, band.shift_bin / n_grid), n_grid,
-                               self.half_width, inv_var, fs * inv_var)
-        grid = np.empty((n_channels, n_grid), dtype=np.complex64)
-        np.multiply(acc[0].numpy().reshape(grid.shape), 1.0 / scale, out=grid.real)
-        np.multiply(acc[1].numpy().reshape(grid.shape), 1.0 / scale, out=grid.imag)
-        return grid
+        u = u[keep]
+        origin, width = self._window(u.min(), u.max())
+        acc = _spread_kernel()(n_channels * width, to_jit(Float64, u),
+                               to_jit(Int64, channel * width - origin), gains, first_order,
+                               dr.opaque(Float64, band.shift_bin / band.n_grid), hw, inv_var,
+                               fs * inv_var, True)
+        return _folded(acc, scale, n_channels, band.n_grid, origin)
+
+    def _merged_grid(self, paths: MergedHits, n_channels: int) -> np.ndarray:
+        """:meth:`impulse_grid` of narrow-band merged paths held as Dr.Jit arrays."""
+        import drjit as dr
+        Float64, Int64 = backend().Float64, backend().Int64
+
+        band = self.band
+        fs, hw, inv_var = band.sample_rate, self.half_width, 1.0 / self.sigma**2
+        if paths.receivers > n_channels:
+            raise ValueError(f"path channel out of range 0..{n_channels - 1}")
+        first, last = ((t + paths.offset - band.start_time) * fs for t in paths.span)
+        omega = 2 * np.pi * (paths.frequency - band.fft_frequencies[band.shift_bin])  # [rad/s]
+        # The bound of flat paths' (impulse_grid), from the merge's bounds on |a| and |b|.
+        scale = _fixed_point_scale(paths.peaks[0] + paths.peaks[1]
+                                   * (abs(omega) + fs * (hw + 1) * inv_var))
+        if len(paths) == 0 or scale is None or last <= -hw or first >= band.n_samples + hw:
+            return np.zeros((n_channels, band.n_grid), dtype=np.complex64)
+        u = (paths.centre + (paths.offset - band.start_time)) * fs
+        (a_re, a_im), (b_re, b_im) = paths.gain, paths.first_order
+        first, last = max(first, -hw), min(last, band.n_samples + hw)
+        origin, width = self._window(first, last)
+        gains = (Float64(a_re) * scale, Float64(a_im) * scale)
+        first_order = (Float64(b_re) * scale, Float64(b_im) * scale, dr.opaque(Float64, omega))
+        acc = _spread_kernel()(n_channels * width, u, Int64(paths.channel) * width - origin,
+                               gains, first_order,
+                               dr.opaque(Float64, band.shift_bin / band.n_grid), hw, inv_var,
+                               fs * inv_var, (u > -hw) & (u < band.n_samples + hw))
+        return _folded(acc, scale, n_channels, band.n_grid, origin)
+
+    def _window(self, first: float, last: float) -> tuple[int, int]:
+        """(origin, width) of the kernels' grid rows for paths at positions ``first`` ..
+        ``last`` [samples] (within -half_width .. n_samples + half_width): column c of a row
+        holds sample origin + c. The width is a power of two (each width is a kernel recording
+        of its own) where that is narrower than the whole recording and its kernel margins:
+        paths spanning a short time, such as direct paths, make small grids."""
+        hw = self.half_width
+        span = int(np.floor(last) - np.floor(first)) + 2 * hw + 1
+        width = 1 << (span - 1).bit_length()
+        if width >= self.band.n_samples + 4 * hw:
+            return -2 * hw, self.band.n_samples + 4 * hw
+        return int(np.floor(first)) - hw, width
+
+    def _demodulation(self, u: np.ndarray) -> np.ndarray:
+        """exp(-j 2 pi f_d u) (complex64) at positions ``u`` [samples], f_d the band centre."""
+        cycles = self.band.shift_bin / self.band.n_grid * u
+        return phasor(-2 * np.pi * (cycles - np.floor(cycles)))
+
+    def _pair_grid(self, paths: HitPaths, n_channels: int) -> np.ndarray:
+        """:meth:`impulse_grid` of factored paths by :func:`_pair_kernel`."""
+        import drjit as dr
+        Float64, Int64, UInt32 = backend().Float64, backend().Int64, backend().UInt32
+
+        band = self.band
+        fs, hw = band.sample_rate, self.half_width
+        n_tx, n_rx = paths.elements
+        if n_rx > n_channels:
+            raise ValueError(f"path channel out of range 0..{n_channels - 1}")
+        earliest = (paths.tx_delay.min(axis=1) + paths.rx_delay.min(axis=1) - band.start_time) * fs
+        latest = (paths.tx_delay.max(axis=1) + paths.rx_delay.max(axis=1) - band.start_time) * fs
+        recorded = (latest > -hw) & (earliest < band.n_samples + hw)  # patches with a pair in
+        paths = paths.select(recorded)
+        scale = _fixed_point_scale(np.max(paths.gain_bound(), initial=0.0))
+        if scale is None:
+            return np.zeros((n_channels, band.n_grid), dtype=np.complex64)
+        tx_u = (paths.tx_delay - band.start_time) * fs  # a pair's position: tx_u + rx_u
+        rx_u = paths.rx_delay * fs
+        tx, rx = paths.scaled(self._demodulation(tx_u), scale * self._demodulation(rx_u)) \
+            .kernel_factors()
+        thread = to_jit(UInt32, np.arange(rx_u.size, dtype=np.uint32))
+        origin, width = self._window(max(earliest[recorded].min(), -hw),
+                                     min(latest[recorded].max(), band.n_samples + hw))
+        acc = _pair_kernel()(n_channels * width, thread, tx, rx, to_jit(Float64, tx_u),
+                             to_jit(Float64, rx_u), n_tx, n_rx, width,
+                             dr.opaque(Int64, -origin), hw, 1.0 / self.sigma**2, band.n_samples)
+        return _folded(acc, scale, n_channels, band.n_grid, origin)
 
     def analytic(self, paths: Paths, n_channels: int, waveform=None) -> np.ndarray:
         """Noiseless :meth:`Band.to_analytic` recordings (n_channels, n_samples) of paths driven
@@ -206,7 +385,11 @@ class EchoSynthesizer:
             by_waveform.setdefault(band.pulse if waveform is None else waveform, []).append(paths)
         spectrum = np.zeros((n_channels, len(band.frequencies)), complex)
         for waveform, parts in by_waveform.items():
-            grid = self.impulse_grid(Paths.concatenate([p.paths for p in parts]), n_channels)
+            kinds: dict = {}  # each kind of paths (and merge frequency) gridded by its kernel
+            for p in parts:
+                kinds.setdefault((type(p), getattr(p, "frequency", None)), []).append(p)
+            grid = sum(self.impulse_grid(kind.concatenate(same), n_channels)
+                       for (kind, _), same in kinds.items())
             spectrum += sfft.fft(grid, axis=-1, workers=-1)[:, band.grid_bins] \
                 * (band.system_spectrum(waveform)[band.bins] * self._deconvolution)
         return spectrum

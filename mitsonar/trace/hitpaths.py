@@ -5,11 +5,14 @@ paths (~900 000 for a standard ping). Most of each path's gain factorises into a
 receive part; only the patch integral couples them (its phase gradient is the sum of both
 directions). :class:`HitPaths` stores the factors, (H, N_tx) and (H, N_rx) arrays, and
 
-* expands them into :class:`~mitsonar.signal.synthesis.Paths` only when every pair is synthesised
-  (``fine`` fidelity, broadband transducers, the tests' references);
+* gives each pair's gain inside Dr.Jit kernels (:func:`pair_gain`): where every pair is
+  synthesised (``fine`` fidelity, broadband transducers) the synthesizer grids them from the
+  factors; :attr:`HitPaths.paths` expands them into flat :class:`~mitsonar.trace.paths.Paths`
+  for references only;
 * merges each patch's transmit elements narrow-band (:meth:`HitPaths.narrowband`, the same merge
   as :meth:`Paths.narrowband`) in one fused Dr.Jit kernel, one thread per patch and group of
-  receive elements, without ever forming the H x N_tx x N_rx arrays.
+  receive elements, without ever forming the H x N_tx x N_rx arrays; the merged paths
+  (:class:`MergedHits`) stay Dr.Jit arrays until they are gridded.
 """
 
 from __future__ import annotations
@@ -132,9 +135,38 @@ class HitPaths:
     def channel(self) -> np.ndarray:
         return self.paths.channel
 
+    def scaled(self, tx_factor, rx_factor) -> "HitPaths":
+        """The same paths with every pair's gain multiplied by tx_factor[h, i] rx_factor[h, j]
+        (complex (H, N_tx) and (H, N_rx) arrays, e.g. demodulating phasors)."""
+        return replace(self, tx_specular=self.tx_specular * tx_factor,
+                       tx_diffuse=self.tx_diffuse * tx_factor,
+                       rx_specular=self.rx_specular * rx_factor,
+                       rx_diffuse=self.rx_diffuse * rx_factor)
+
+    def gain_bound(self) -> np.ndarray:
+        """(H,) bound on each patch's pair gains |gain[h, i, j]| [Pa] (|sinc| <= 1)."""
+        peak = lambda a: np.abs(a).max(axis=1, initial=0.0)  # noqa: E731
+        return peak(self.tx_specular) * peak(self.rx_specular) * np.abs(self.specular) \
+            * (peak(self.tx_cos) + peak(self.rx_cos)) \
+            + peak(self.tx_diffuse) * peak(self.rx_diffuse) * np.abs(self.diffuse)
+
     def delayed(self, seconds: float) -> "HitPaths":
         """The same paths ``seconds`` [s] later (still factored)."""
         return replace(self, tx_delay=self.tx_delay + seconds)
+
+    def kernel_factors(self) -> tuple[list, list]:
+        """The gain factors as single-precision Dr.Jit arrays for :func:`pair_gain`: 7 transmit
+        factors (H x N_tx,) (specular re, im, diffuse re, im, cosine, sinc arguments) and 7
+        receive factors (H x N_rx,) with the patch's own factors folded in."""
+        Float32 = backend().Float32
+        rx_s = self.rx_specular * self.specular[:, None]
+        rx_d = self.rx_diffuse * self.diffuse[:, None]
+        tx = [to_jit(Float32, x) for x in (
+            self.tx_specular.real, self.tx_specular.imag, self.tx_diffuse.real,
+            self.tx_diffuse.imag, self.tx_cos, self.tx_sinc[..., 0], self.tx_sinc[..., 1])]
+        rx = [to_jit(Float32, x) for x in (rx_s.real, rx_s.imag, rx_d.real, rx_d.imag,
+                                           self.rx_cos, self.rx_sinc[..., 0], self.rx_sinc[..., 1])]
+        return tx, rx
 
     def narrowband(self, frequency: float) -> Paths:
         """Each patch's transmit elements merged into one path per receive element about
@@ -145,41 +177,123 @@ class HitPaths:
     def narrowband_many(self, frequencies) -> list[Paths]:
         """:meth:`narrowband` about each of ``frequencies`` [Hz] (an OFDM code's tones), in one
         kernel: the element-pair gains are formed once for all of them."""
-        Float32, UInt32 = backend().Float32, backend().UInt32
+        return [merged.paths for merged in self.merged(frequencies)]
+
+    def merged(self, frequencies) -> list["MergedHits"]:
+        """:meth:`narrowband_many` as it leaves the merge kernel: Dr.Jit arrays, not copied
+        into NumPy until asked for (the synthesizer grids them as they are)."""
+        Float32, Float64, UInt32 = backend().Float32, backend().Float64, backend().UInt32
 
         n_tx, n_rx = self.elements
         n_hits = len(self.tx_delay)
         if n_hits == 0:
-            return [Paths.empty() for _ in frequencies]
+            return [MergedHits((Float32(), Float32()), (Float32(), Float32()), Float64(),
+                               UInt32(), np.zeros(0, int), float(f), n_rx, (0.0, 0.0), (0.0, 0.0))
+                    for f in frequencies]
         # Transmit delays relative to their patch mean (|tau| <~ 0.2 ms): exact in single precision.
         tx_mean = self.tx_delay.mean(axis=1, keepdims=True)
-        f32 = lambda a: to_jit(Float32, a)  # noqa: E731
-        # Per (patch, receive element) thread: receive factors with the patch factors folded in.
-        rx_s = self.rx_specular * self.specular[:, None]
-        rx_d = self.rx_diffuse * self.diffuse[:, None]
-        rx = [f32(x) for x in (rx_s.real, rx_s.imag, rx_d.real, rx_d.imag, self.rx_cos,
-                               self.rx_sinc[..., 0], self.rx_sinc[..., 1])]
-        tx = [f32(x) for x in (self.tx_specular.real, self.tx_specular.imag, self.tx_diffuse.real,
-                               self.tx_diffuse.imag, self.tx_cos, self.tx_sinc[..., 0],
-                               self.tx_sinc[..., 1], self.tx_delay - tx_mean)]
+        tx, rx = self.kernel_factors()
+        tx.append(to_jit(Float32, self.tx_delay - tx_mean))
         # Opaque carriers: variables, not literals, so one kernel serves every tone.
         omegas = [dr.opaque(Float32, -2.0 * np.pi * f) for f in frequencies]
         group = next(g for g in range(min(MERGE_GROUP, n_rx), 0, -1) if n_rx % g == 0)
         # Thread indices passed in: a size computed inside a frozen function is fixed when traced.
-        thread = to_jit(UInt32, np.arange(n_hits * n_rx // group, dtype=np.uint32))
-        outputs = _merge_kernel()(thread, tx, rx, omegas, n_tx, n_rx, group)
+        thread = np.arange(n_hits * n_rx // group, dtype=np.uint32)
+        outputs = _merge_kernel()(to_jit(UInt32, thread), tx, rx, omegas, n_tx, n_rx, group)
+        # Thread t's output j is the path of flat (patch, element) t * group + j: the outputs
+        # are kept in that order, j after j.
+        element = (thread[None, :] * group + np.arange(group)[:, None]).ravel()
 
-        def per_pair(k: int) -> np.ndarray:
-            """Output k of every thread's receive elements as (H x N_rx,), (patch, element) order:
-            thread t serves elements t * group + (0 .. group - 1) of the flat order."""
-            return np.stack([out[k].numpy() for out in outputs], axis=-1).ravel()
+        def joined(k: int):
+            return dr.concat([out[k] for out in outputs]) if group > 1 else outputs[0][k]
 
-        centre = (self.rx_delay + tx_mean).ravel() + per_pair(0)
-        channel = np.tile(np.arange(n_rx), n_hits)
-        return [Paths(per_pair(k).astype(float) + 1j * per_pair(k + 1), centre, channel,
-                      first_order=per_pair(k + 2).astype(float) + 1j * per_pair(k + 3),
-                      carrier=float(frequency))
+        centre = to_jit(Float64, (self.rx_delay + tx_mean).ravel()[element]) \
+            + Float64(joined(0))
+        channel = to_jit(UInt32, element % n_rx)
+        # A merged path's delay lies within its pairs' (its centre is their weighted mean);
+        # |a| <= sum_i |g_i| and |b| <= sum_i |g_i| |tau_i - m|, m between the tau_i.
+        span = (float(np.min(self.tx_delay.min(axis=1) + self.rx_delay.min(axis=1))),
+                float(np.max(self.tx_delay.max(axis=1) + self.rx_delay.max(axis=1))))
+        bound = n_tx * self.gain_bound()
+        peaks = (float(bound.max()), float(np.max(bound * np.ptp(self.tx_delay, axis=1))))
+        return [MergedHits((joined(k), joined(k + 1)), (joined(k + 2), joined(k + 3)), centre,
+                           channel, element, float(frequency), n_rx, span, peaks)
                 for k, frequency in zip(range(1, 4 * len(frequencies), 4), frequencies)]
+
+
+@dataclass(frozen=True, eq=False)
+class MergedHits:
+    """Narrow-band merged paths (:meth:`HitPaths.merged`) about one frequency, one per patch and
+    receive element, as Dr.Jit arrays: a :class:`Paths` whose arrays stay where the merge
+    kernel left them until the synthesizer grids them.
+
+    Attributes:
+        gain: (re, im) Float32 arrays (M,) of the merged gains a [Pa].
+        first_order: (re, im) Float32 arrays (M,) of the first-order gains b [Pa s].
+        centre: Float64 (M,) delays [s], before ``offset``.
+        channel: UInt32 (M,) receive element index.
+        element: (M,) NumPy index of each path in (patch, receive element) order.
+        frequency: the merge's centre, the carrier of the first-order terms [Hz].
+        receivers: N_rx; channels are 0 .. N_rx - 1.
+        span: (earliest, latest) delay [s] a path can have, before ``offset``.
+        peaks: bounds on |a| [Pa] and |b| [Pa s] over the paths.
+        offset: added to every delay [s] (:meth:`delayed`).
+    """
+
+    gain: tuple
+    first_order: tuple
+    centre: object
+    channel: object
+    element: np.ndarray
+    frequency: float
+    receivers: int
+    span: tuple[float, float]
+    peaks: tuple[float, float]
+    offset: float = 0.0
+
+    @classmethod
+    def concatenate(cls, parts) -> "MergedHits":
+        """The paths of all ``parts``, merged about the same frequency."""
+        parts = list(parts)
+        if len({p.frequency for p in parts}) != 1:
+            raise ValueError("MergedHits.concatenate: parts merged about different frequencies")
+        parts = [p for p in parts if len(p)] or parts[:1]
+        if len(parts) == 1:
+            return parts[0]
+
+        def joined(arrays):
+            return dr.concat(list(arrays))
+
+        starts = np.cumsum([0] + [len(p) for p in parts[:-1]])
+        return cls(tuple(joined(p.gain[k] for p in parts) for k in range(2)),
+                   tuple(joined(p.first_order[k] for p in parts) for k in range(2)),
+                   joined(p.centre + p.offset for p in parts),
+                   joined(p.channel for p in parts),
+                   np.concatenate([p.element + start for p, start in zip(parts, starts)]),
+                   parts[0].frequency, max(p.receivers for p in parts),
+                   (min(p.span[0] + p.offset for p in parts),
+                    max(p.span[1] + p.offset for p in parts)),
+                   tuple(max(p.peaks[k] for p in parts) for k in range(2)))
+
+    def __len__(self) -> int:
+        return len(self.element)
+
+    def delayed(self, seconds: float) -> "MergedHits":
+        """The same paths ``seconds`` [s] later (>= 0: the synthesizer leaves out the patches
+        that arrive after its recording, which an earlier firing would bring back)."""
+        if not seconds >= 0:
+            raise ValueError(f"MergedHits.delayed: seconds must be >= 0, got {seconds}")
+        return replace(self, offset=self.offset + seconds)
+
+    @cached_property
+    def paths(self) -> Paths:
+        """These paths as :class:`Paths`, in (patch, receive element) order."""
+        order = np.argsort(self.element, kind="stable")
+        values = [x.numpy()[order] for x in (*self.gain, *self.first_order, self.centre)]
+        return Paths(values[0].astype(float) + 1j * values[1], values[4] + self.offset,
+                     self.channel.numpy()[order].astype(int),
+                     first_order=values[2].astype(float) + 1j * values[3],
+                     carrier=self.frequency)
 
 
 #: Receive elements per thread of the merge kernel: each thread loads its patch's transmit factors
@@ -206,13 +320,9 @@ def _merge_kernel():
         phasors = [[dr.sincos(omega * values[7]) for values in tx_values] for omega in omegas]
         outputs = []
         for j in range(group):  # receive element thread * group + j (unrolled)
-            q_re, q_im, v_re, v_im, d, b1, b2 = (dr.gather(Float32, x, thread * group + j) for x in rx)
-            gains = []
-            for p_re, p_im, u_re, u_im, c, a1, a2, tau_i in tx_values:  # (unrolled)
-                patch = (c + d) * _sinc_dr(a1 + b1) * _sinc_dr(a2 + b2)
-                g_re = (p_re * q_re - p_im * q_im) * patch + u_re * v_re - u_im * v_im
-                g_im = (p_re * q_im + p_im * q_re) * patch + u_re * v_im + u_im * v_re
-                gains.append((g_re, g_im, tau_i))
+            rx_values = [dr.gather(Float32, x, thread * group + j) for x in rx]
+            gains = [pair_gain(values[:7], rx_values) + (values[7],)  # (unrolled)
+                     for values in tx_values]
             weight = [dr.sqrt(g_re * g_re + g_im * g_im) for g_re, g_im, _ in gains]
             total = sum(weight)
             mean_tau = dr.select(total > 0, sum(w * t for w, (_, _, t) in zip(weight, gains))
@@ -236,6 +346,16 @@ def _merge_kernel():
         return outputs
 
     return dr.freeze(merge)
+
+
+def pair_gain(tx_values, rx_values):
+    """Gain (re, im) of one element pair inside a Dr.Jit kernel, from the 7 transmit factors
+    and the 7 receive factors of :meth:`HitPaths.kernel_factors` (gathered for the pair)."""
+    p_re, p_im, u_re, u_im, c, a1, a2 = tx_values
+    q_re, q_im, v_re, v_im, d, b1, b2 = rx_values
+    patch = (c + d) * _sinc_dr(a1 + b1) * _sinc_dr(a2 + b2)
+    return ((p_re * q_re - p_im * q_im) * patch + u_re * v_re - u_im * v_im,
+            (p_re * q_im + p_im * q_re) * patch + u_re * v_im + u_im * v_re)
 
 
 def _sinc_dr(x):
