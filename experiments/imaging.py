@@ -67,7 +67,8 @@ from mitsonar.sensors.imaging_sonar import ImagingSonar, TransmitSettings
 from mitsonar.sensors.ofdm_sonar import OfdmSonar, pose_along
 from mitsonar.sensors.trajectory import sensor_poses
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))  # the comparison's definitions
+if str(Path(__file__).resolve().parent) not in sys.path:  # the comparison's definitions
+    sys.path.append(str(Path(__file__).resolve().parent))
 from comparison import THIN_VOXEL, VIEW_PERIOD, VoxelThinner  # noqa: E402
 
 SCENES = Path(__file__).resolve().parents[1] / "scenes"
@@ -339,8 +340,8 @@ def save_figure(path: Path, rows) -> None:
                for s, m in MARKERS.items()]
     handles += [plt.Line2D([], [], marker="o", ls="", color=c, label=p, markerfacecolor=f)
                 for p, c, f in (("paper", "C0", "C0"), ("default", "C1", "none"))]
-    fig.legend(handles=handles, loc="lower center", ncol=len(handles), fontsize=8)
-    fig.tight_layout(rect=(0, 0.04, 1, 1))
+    fig.legend(handles=handles, loc="lower center", ncol=5, fontsize=8)
+    fig.tight_layout(rect=(0, 0.06, 1, 1))
     save_png(fig, path)
 
 
