@@ -6,8 +6,9 @@ ground truth (``/ground_truth/pose``), the camera's sRGB image (the pixels of ``
 z-depth and calibration, one ``/sonar/detections`` cloud with every echo of the scan (the rows of
 the echo table in ``echoes.npz``, with their attributes) and one ``/sonar/echoes`` message per
 beam. The dataset renders a sample's scan from one pose at one instant, so all its beams carry
-the sample's time. The fixed frames (``/tf_static``) come from the dataset's calibration. Every file is verified against its sample's manifest first; a
-missing, truncated or corrupt file stops the export with a
+the sample's time. The fixed frames (``/tf_static``) come from the dataset's calibration. Every
+file is verified against its sample's manifest first; a missing, truncated or corrupt file (or a
+sample without an echo table) stops the export with a
 :class:`~mitsonar.data.dataset.DatasetError` naming it, and no MCAP file is written.
 """
 
