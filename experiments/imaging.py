@@ -41,10 +41,10 @@ is the wall-clock time of the simulation (shared by a scan's echo sets).
 
 Writes imaging.csv/.md (a row per scene, preset and strategy) and imaging.png (points per
 second against accuracy and completeness, the VLP-16's completeness and issue 28's goals
-marked). docs/imaging.md shows them (``--stride 16``); unstrided, the chart takes about 6 h on
+marked). docs/imaging.md shows them (``--stride 20``); unstrided, the chart takes about 6 h on
 2 shared cores.
 
-    .venv/bin/python experiments/imaging.py --stride 16 --out out/imaging
+    .venv/bin/python experiments/imaging.py --stride 20 --out out/imaging
     .venv/bin/python experiments/imaging.py --quick --out out/imaging    # ~1 min
 """
 
