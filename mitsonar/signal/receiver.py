@@ -12,7 +12,9 @@ Order and choices:
   side-lobe check in one sparse product per carrier for the strongest candidate of every beam
   and one for the other candidates of the beams whose strongest was rejected (look after look:
   a candidate rejected in one look is not checked in the next), the arrival directions of
-  every detected beam in one more. One beam is the case B = 1.
+  every detected beam in one more. One beam is the case B = 1. Everything after the channels'
+  FFT also runs from channel spectra on the band handed in directly
+  (:meth:`EchoProcessor.process_spectra`: the detection-only path of OFDM frames).
 * Matched filter (6) with the expected echo shape (drive pulse through both transducer
   responses), normalised so that an echo of path gain A gives an envelope peak of |A| [Pa].
   Beamforming and filtering share one FFT per channel and one inverse FFT, and are computed on
