@@ -68,6 +68,10 @@ QUICK: list[tuple[str, dict | str]] = [
     (".venv/bin/python scenes/generate.py", {"--out": "out/scenes", "--only": "room_glass"}),
     (".venv/bin/python scenes/generate.py --only office --out out/scenes", {}),
     (".venv/bin/python scenes/generate.py --varied 10 --out out/varied", {"--varied": "1"}),
+    (".venv/bin/python scenes/generate.py --lighting ceiling --out out/ceiling",
+     {"--only": "room_glass"}),
+    (".venv/bin/python scenes/generate.py --varied 10 --lighting ceiling --out out/varied_ceiling",
+     {"--varied": "1"}),
     (".venv/bin/python benchmarks/run.py", {"--quick": None}),
     (".venv/bin/python benchmarks/run.py --quick", {}),
     *[(f".venv/bin/python experiments/{name}.py {quick}--out out/{name}", BY_TEST_EXPERIMENTS)

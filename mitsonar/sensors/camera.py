@@ -6,9 +6,12 @@ vertical 48.5 deg). The optical centre sits 7.5 cm above the array origin; its a
 sensor's (x right, y down, z forward), so the camera-from-sensor extrinsic is a pure translation.
 Pixel (i, j) covers u in [i, i+1), v in [j, j+1); the principal point is the image centre.
 
-Rendering uses the same loaded ``mi.Scene`` as the sonar. Images are rendered one sample per
-pixel per pass (each pass writes every pixel once) and the passes are averaged in a fixed order,
-so a seed gives bit-identical images however many threads render them.
+Rendering uses the same loaded ``mi.Scene`` as the sonar, path traced (``CameraModel.max_depth``)
+or, where the scene's own integrator is Mitsuba's ``direct`` (the ``key`` look of
+:mod:`mitsonar.scene.building.lights`, like the paper's rasterised Gazebo worlds), with direct
+light only. Images are rendered one sample per pixel per pass (each pass writes every pixel
+once) and the passes are averaged in a fixed order, so a seed gives bit-identical images however
+many threads render them.
 
 The Monte Carlo noise of a path tracer at a few samples per pixel is a rendering artefact, not
 camera noise: at 32 spp a lit drywall room shows 15-20 grey levels of it (of 255), more than the
@@ -30,6 +33,8 @@ from mitsonar.scene.rays import rays
 from mitsonar.scene.loading import AcousticScene, mitsuba
 from mitsonar.validation import check_positive
 
+#: Path length of direct light only: the camera ray's hit and one ray to a light.
+DIRECT_DEPTH = 2
 #: Rec. 709 luminance weights for grayscale images from linear RGB.
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
 
@@ -44,7 +49,8 @@ class CameraModel:
         focal_length: lens focal length [m].
         offset: (3,) optical centre in the sensor frame [m].
         spp: samples per pixel of the path tracer.
-        max_depth: path length limit of the path tracer.
+        max_depth: path length limit of the path tracer (2, direct light only, in scenes that
+            ask for Mitsuba's ``direct`` integrator).
         denoise: denoise the rendered image with OIDN guided by albedo and normals (module
             docstring); False: the raw Monte Carlo estimate.
     """
@@ -171,7 +177,10 @@ class CameraRenderer:
         self.mi = mitsuba()
         self.scene = scene
         self.model = model
-        path = {"type": "path", "max_depth": model.max_depth}
+        own = scene.scene.integrator()  # None where the scene file names none
+        direct = own is not None and own.class_name() == "DirectIntegrator"
+        path = {"type": "path",
+                "max_depth": min(model.max_depth, DIRECT_DEPTH) if direct else model.max_depth}
         # the aov integrator adds albedo (3 channels) and shading normals (3) after the RGB
         self._integrator = self.mi.load_dict(
             {"type": "aov", "aovs": "albedo:albedo,nn:sh_normal", "integrator": path}
