@@ -53,6 +53,7 @@ class CameraModel:
             ask for Mitsuba's ``direct`` integrator).
         denoise: denoise the rendered image with OIDN guided by albedo and normals (module
             docstring); False: the raw Monte Carlo estimate.
+        frame_rate: frames per second [Hz] while the robot drives (25, DESIGN.md's camera).
     """
 
     width: int = 1600
@@ -63,6 +64,7 @@ class CameraModel:
     spp: int = 16
     max_depth: int = 6
     denoise: bool = True
+    frame_rate: float = 25.0
 
     def __post_init__(self):
         for name in ("width", "height", "spp", "max_depth"):
@@ -71,6 +73,7 @@ class CameraModel:
                 raise ValueError(f"CameraModel.{name} must be a positive integer, got {value}")
         check_positive("CameraModel.pixel_pitch [m]", self.pixel_pitch)
         check_positive("CameraModel.focal_length [m]", self.focal_length)
+        check_positive("CameraModel.frame_rate [Hz]", self.frame_rate)
         object.__setattr__(self, "offset", np.asarray(self.offset, dtype=float))
 
     def at_resolution(self, width: int) -> "CameraModel":
