@@ -9,7 +9,8 @@ Pixel (i, j) covers u in [i, i+1), v in [j, j+1); the principal point is the ima
 Rendering uses the same loaded ``mi.Scene`` as the sonar, path traced (``CameraModel.max_depth``)
 or, where the scene's own integrator is Mitsuba's ``direct`` (the ``key`` look of
 :mod:`mitsonar.scene.building.lights`, like the paper's rasterised Gazebo worlds), with direct
-light only. Images are rendered one sample per pixel per pass (each pass writes every pixel
+light only (Mitsuba's ``volpath`` to depth 2: passing through glass is no bounce there, so what
+stands behind a glass partition is lit as what stands in front of it). Images are rendered one sample per pixel per pass (each pass writes every pixel
 once) and the passes are averaged in a fixed order, so a seed gives bit-identical images however
 many threads render them.
 
@@ -181,9 +182,11 @@ class CameraRenderer:
         self.scene = scene
         self.model = model
         own = scene.scene.integrator()  # None where the scene file names none
-        direct = own is not None and own.class_name() == "DirectIntegrator"
-        path = {"type": "path",
-                "max_depth": min(model.max_depth, DIRECT_DEPTH) if direct else model.max_depth}
+        # direct light only: volpath, whose passes through glass (null interactions) are not
+        # bounces, so what stands behind a glass partition is lit as in front of it
+        path = {"type": "volpath", "max_depth": min(model.max_depth, DIRECT_DEPTH)} \
+            if own is not None and own.class_name() == "DirectIntegrator" else \
+            {"type": "path", "max_depth": model.max_depth}
         # the aov integrator adds albedo (3 channels) and shading normals (3) after the RGB
         self._integrator = self.mi.load_dict(
             {"type": "aov", "aovs": "albedo:albedo,nn:sh_normal", "integrator": path}
