@@ -30,12 +30,11 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from mitsonar.frames import Pose
+from mitsonar.scene.building.lights import direct_light_integrator
 from mitsonar.scene.rays import rays
 from mitsonar.scene.loading import AcousticScene, mitsuba
 from mitsonar.validation import check_positive
 
-#: Path length of direct light only: the camera ray's hit and one ray to a light.
-DIRECT_DEPTH = 2
 #: Rec. 709 luminance weights for grayscale images from linear RGB.
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
 
@@ -50,8 +49,8 @@ class CameraModel:
         focal_length: lens focal length [m].
         offset: (3,) optical centre in the sensor frame [m].
         spp: samples per pixel of the path tracer.
-        max_depth: path length limit of the path tracer (2, direct light only, in scenes that
-            ask for Mitsuba's ``direct`` integrator).
+        max_depth: path length limit of the path tracer (not used in scenes that ask for
+            Mitsuba's ``direct`` integrator: direct light only).
         denoise: denoise the rendered image with OIDN guided by albedo and normals (module
             docstring); False: the raw Monte Carlo estimate.
         frame_rate: frames per second [Hz] while the robot drives (25, DESIGN.md's camera).
@@ -181,12 +180,8 @@ class CameraRenderer:
         self.mi = mitsuba()
         self.scene = scene
         self.model = model
-        own = scene.scene.integrator()  # None where the scene file names none
-        # direct light only: volpath, whose passes through glass (null interactions) are not
-        # bounces, so what stands behind a glass partition is lit as in front of it
-        path = {"type": "volpath", "max_depth": min(model.max_depth, DIRECT_DEPTH)} \
-            if own is not None and own.class_name() == "DirectIntegrator" else \
-            {"type": "path", "max_depth": model.max_depth}
+        path = direct_light_integrator(scene.scene) or {"type": "path",
+                                                        "max_depth": model.max_depth}
         # the aov integrator adds albedo (3 channels) and shading normals (3) after the RGB
         self._integrator = self.mi.load_dict(
             {"type": "aov", "aovs": "albedo:albedo,nn:sh_normal", "integrator": path}

@@ -37,19 +37,20 @@ SUN_IRRADIANCE = (6.0, 5.6, 5.0)
 #: Scene lighting looks (module docstring); the first is the default.
 LIGHTINGS = ("key", "ceiling")
 #: Key light: direction the light travels, from 55 deg above the horizon at azimuth 30 deg from
-#: +x towards +y, and its irradiance [W/m^2] normal to the rays. With the fill and the ambient
-#: term below, a wall facing +x, +y, -x, -y and the floor get 0.65, 0.44, 0.31, 0.43 and 1.35
-#: times the key's irradiance: adjacent walls differ by factors 1.38-1.51, and the floor, the
+#: +x towards +y, and its irradiance [W/m^2] normal to the rays (a floor of albedo 0.7, the
+#: palest drawn, shows 0.75: images stay below 1 without tone mapping). With the fill and the
+#: ambient term below, a wall facing +x, +y, -x, -y and the floor get 0.65, 0.44, 0.31, 0.43 and
+#: 1.35 times the key's irradiance: adjacent walls differ by factors 1.38-1.51, and the floor, the
 #: brightest, differs from every wall by a factor 1.19 or more for floors 1 to 2.5 times darker
 #: than the walls (directions and strengths chosen on a grid for the largest smallest factor;
 #: direct light only, ceiling panels aside).
 KEY_DIRECTION = (-0.4967, -0.2868, -0.8192)
-KEY_IRRADIANCE = 6.0
+KEY_IRRADIANCE = 2.5
 #: Fill light: from 50 deg above the horizon at azimuth 240 deg, half the key's irradiance.
 FILL_DIRECTION = (0.3214, 0.5567, -0.766)
-FILL_IRRADIANCE = 3.0
+FILL_IRRADIANCE = 1.25
 #: Ambient irradiance [W/m^2] (every surface, whatever its orientation): 0.15 of the key's.
-AMBIENT_IRRADIANCE = 0.9
+AMBIENT_IRRADIANCE = 0.375
 
 
 def ceiling_lights(lights: list[tuple[Rect2, tuple]], height: float,
@@ -72,6 +73,22 @@ def sun_xml(direction, irradiance) -> list[str]:
             f'    <vector name="direction" value="{fmt_vec(direction)}"/>',
             f'    <rgb name="irradiance" value="{fmt_vec(irradiance)}"/>',
             '</emitter>']
+
+
+#: Path length of direct light only: the camera ray's hit and one ray to a light.
+DIRECT_DEPTH = 2
+
+
+def direct_light_integrator(scene) -> dict | None:
+    """Where a loaded ``mi.Scene``'s file asks for Mitsuba's ``direct`` integrator (the ``key``
+    look), the integrator (a ``load_dict`` dictionary) that renders its direct light: ``volpath``
+    to depth 2, whose passes through glass (null interactions) are no bounces, so what stands
+    behind a glass partition is lit as what stands in front of it (``direct`` and ``path``
+    leave it black); None for scenes in another look."""
+    own = scene.integrator()  # None where the scene file names none
+    if own is not None and own.class_name() == "DirectIntegrator":
+        return {"type": "volpath", "max_depth": DIRECT_DEPTH}
+    return None
 
 
 def key_lights_xml(rooms) -> list[str]:
