@@ -3,10 +3,11 @@ worlds (a directional sun plus a constant ambient term, rendered without interre
 room that, unlike a Gazebo world, has a ceiling.
 
 ``key_light`` is parallel light (``direction`` of travel, ``irradiance`` [W/m^2] normal to the
-rays, linear RGB) whose shadow rays stop where they leave the room's boxes (``rooms``: "x0 x1 y0
-y1 z0 z1; ..." [m], the rooms' interiors): the ceiling, the outer walls and the walls between
-rooms cast no shadows of it, what stands inside a room does (no rooms: nothing does). So each flat surface of the building
-is lit evenly, by the cosine of its angle to the light, as a Gazebo world without a roof::
+rays, linear RGB) whose shadow rays stop where they leave the room's boxes (``rooms``: "x0 x1 y0 y1
+z0 z1; ..." [m], the rooms' interiors): the ceiling, the outer walls and the walls between rooms
+cast no shadows of it, what stands inside a room does (no rooms: nothing does). So each flat
+surface of the building is lit evenly, by the cosine of its angle to the light, as a Gazebo world
+without a roof::
 
     <emitter type="key_light" id="key">
         <vector name="direction" value="-0.5, -0.29, -0.82"/>

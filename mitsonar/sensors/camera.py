@@ -10,9 +10,9 @@ Rendering uses the same loaded ``mi.Scene`` as the sonar, path traced (``CameraM
 or, where the scene's own integrator is Mitsuba's ``direct`` (the ``key`` look of
 :mod:`mitsonar.scene.building.lights`, like the paper's rasterised Gazebo worlds), with direct
 light only (Mitsuba's ``volpath`` to depth 2: passing through glass is no bounce there, so what
-stands behind a glass partition is lit as what stands in front of it). Images are rendered one sample per pixel per pass (each pass writes every pixel
-once) and the passes are averaged in a fixed order, so a seed gives bit-identical images however
-many threads render them.
+stands behind a glass partition is lit as what stands in front of it). Images are rendered one
+sample per pixel per pass (each pass writes every pixel once) and the passes are averaged in a
+fixed order, so a seed gives bit-identical images however many threads render them.
 
 The Monte Carlo noise of a path tracer at a few samples per pixel is a rendering artefact, not
 camera noise: at 32 spp a lit drywall room shows 15-20 grey levels of it (of 255), more than the

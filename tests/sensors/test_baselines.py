@@ -166,8 +166,8 @@ def test_sweep_takes_each_sensors_frames_at_its_rate_and_places_every_beam(scene
     placed with it: every noise-free point lies on the box room's walls (1e-4 m), and a
     revolution's points differ from those of the robot standing still at its start."""
     scene = scene_file("box", *box_room())
-    trajectory = Trajectory(np.array([[0.0, 0.0, 0.0], [0.0, 0.0, np.pi / 2], [1.0, 0.0, np.pi / 2]]),
-                            speed=0.2, yaw_rate=np.radians(30.0))
+    trajectory = Trajectory(np.array([[0.0, 0.0, 0.0], [0.0, 0.0, np.pi / 2],
+                                      [1.0, 0.0, np.pi / 2]]), speed=0.2, yaw_rate=np.radians(30.0))
     lidar, camera = Lidar(scene, NOISE_FREE), DepthCamera(scene)
     frames = {key: list(sweep(sensor, trajectory, duration=0.5, seed=3))
               for key, sensor in (("lidar", lidar), ("camera", camera))}

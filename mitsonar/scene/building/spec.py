@@ -113,8 +113,8 @@ class SceneSpec:
 
     def _integrator_xml(self) -> list[str]:
         if self.lighting == "key":
-            return ['    <!-- direct: light reaches each surface straight from the lights, as in the '
-                    'rasterised Gazebo worlds; the ambient term stands in for the bounces -->',
+            return ['    <!-- direct: light reaches each surface straight from the lights, as in '
+                    'the rasterised Gazebo worlds; the ambient term stands in for the bounces -->',
                     '    <integrator type="direct"/>']
         return ['    <!-- volpath: its shadow rays continue through thin glass panes (null '
                 'transmission), so sun and sky light reach the room through the windows where '
