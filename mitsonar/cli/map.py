@@ -66,6 +66,9 @@ def _drive(args):
         raise ValueError(f"--frames must be >= 1, got {args.frames}")
     if args.speed is not None:
         trajectory = replace(trajectory, speed=args.speed)
+    if args.duration is not None and not 0 < args.duration <= trajectory.duration:
+        raise ValueError(f"--duration must lie in (0, {trajectory.duration:.1f}] s, the "
+                         f"trajectory's length, got {args.duration:g}")
     driven = trajectory.driven(args.duration)
     print(f"Driving {driven:.1f} s of the {trajectory.duration:.1f} s trajectory at "
           f"{trajectory.speed:g} m/s, turning at {np.degrees(trajectory.yaw_rate):g} deg/s.",
