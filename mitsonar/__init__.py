@@ -16,6 +16,7 @@ from mitsonar.data.dataset import DatasetSpec, open_dataset, render_dataset  # n
 from mitsonar.physics.materials import PRESETS, AcousticMaterial, preset  # noqa: E402
 from mitsonar.physics.medium import Medium  # noqa: E402
 from mitsonar.sensors.ofdm_sonar import OfdmSonar  # noqa: E402
+from mitsonar.sensors.imaging_sonar import ImagingSonar  # noqa: E402
 from mitsonar.signal.ofdm import Schedule, code_set  # noqa: E402
 from mitsonar.signal.detection import Detection, DetectionSettings  # noqa: E402
 from mitsonar.scene.loading import AcousticScene, SceneError, load_scene  # noqa: E402
@@ -29,7 +30,7 @@ from mitsonar.recon.voxelmap import VoxelMap, VoxelMapSettings, colourise  # noq
 __all__ = ["AcousticMaterial", "AcousticScene", "ArrayGeometry", "ArrayLayout", "CameraModel",
            "CameraRenderer", "DatasetSpec", "Detection", "OdometryDrift", "Trajectory",
            "open_dataset", "render_dataset", "OfdmSonar", "Schedule", "code_set", "VoxelMap",
-           "VoxelMapSettings", "colourise",
+           "VoxelMapSettings", "colourise", "ImagingSonar",
            "DetectionSettings", "Medium", "PRESETS", "Ping", "Pose", "Pulse", "Scan", "SceneError",
            "Sonar", "SonarConfig", "TraceSettings", "Transducer", "angles_from_direction",
            "direction_from_angles", "direction_from_fov_angles", "fov_angles", "load_scene",

@@ -7,6 +7,7 @@
     print(ping.detection.depth)                      # metres, NaN if no detection
     scan = sonar.scan(pose, sonar.fov_grid(np.radians(5)))
     scan.points_world                                # (n_detected, 3)
+    scan.echo_points_world                           # every echo (DetectionSettings.echoes)
 """
 
 from __future__ import annotations
@@ -21,7 +22,7 @@ from mitsonar.physics.array import ArrayGeometry
 from mitsonar.frames import Pose
 from mitsonar.trace.hitpaths import HitPaths
 from mitsonar.physics.medium import Medium
-from mitsonar.signal.detection import Detection, DetectionSettings
+from mitsonar.signal.detection import Detection, DetectionSettings, Echoes
 from mitsonar.signal.receiver import EchoProcessor
 from mitsonar.scene.loading import AcousticScene, load_scene
 from mitsonar.physics.waveforms import Pulse
@@ -190,6 +191,8 @@ class Scan:
         depth: (B,) [m], NaN where nothing was detected.
         amplitude: (B,) strongest envelope value [Pa].
         points_sensor: (B, 3) reflectors, sensor frame, NaN where nothing was detected.
+        echo_table: every echo reported (``DetectionSettings.echoes``), one row each, points in
+            the sensor frame; its rank-0 rows are ``detected``, ``depth`` and ``points_sensor``.
         echoes: (B, N_rx, N) recordings [Pa]: float32 pressure, or complex64 baseband when
             ``carrier`` > 0 (pressure = Re(echoes exp(j 2 pi carrier t))).
         sample_rate: [Hz]; start_time: time of sample 0 [s]; carrier: [Hz] (0: real pressure).
@@ -201,13 +204,15 @@ class Scan:
     depth: np.ndarray
     amplitude: np.ndarray
     points_sensor: np.ndarray
+    echo_table: Echoes
     echoes: np.ndarray
     sample_rate: float
     start_time: float
     carrier: float = 0.0
 
     def arrays(self) -> dict:
-        """The scan as named arrays (the ``echoes.npz`` format of docs/datasets.md)."""
+        """The scan as named arrays (the ``echoes.npz`` format of docs/datasets.md): the echo
+        table's columns are named ``echo_`` + column."""
         from mitsonar.frames import fov_angles
 
         h, v = fov_angles(self.directions)
@@ -215,12 +220,18 @@ class Scan:
                     carrier_frequency=self.carrier,
                     directions=self.directions, horizontal_deg=np.degrees(h),
                     vertical_deg=np.degrees(v), detected=self.detected, depth=self.depth,
-                    amplitude=self.amplitude, points_sensor=self.points_sensor)
+                    amplitude=self.amplitude, points_sensor=self.points_sensor,
+                    **self.echo_table.arrays("echo_"))
 
     @property
     def points_world(self) -> np.ndarray:
         """(n_detected, 3) detected reflectors in the world frame, equation (12)."""
         return self.pose.transform_points(self.points_sensor[self.detected])
+
+    @property
+    def echo_points_world(self) -> np.ndarray:
+        """(E, 3) the points of every echo of :attr:`echo_table` in the world frame, (12)."""
+        return self.pose.transform_points(self.echo_table.point)
 
 
 class Sonar:
@@ -335,9 +346,12 @@ class Sonar:
                     progress(b)
         joined = {name: np.concatenate([getattr(d, name) for d in found])
                   for name in ("detected", "depth", "amplitude", "point")}
+        table = Echoes.gather([d.echoes for d in found],
+                              [np.arange(first, first + len(d)) for first, d in
+                               zip(range(0, len(dirs), TRACE_BATCH), found)])
         return Scan(pose=pose, directions=dirs, detected=joined["detected"],
                     depth=joined["depth"], amplitude=joined["amplitude"],
-                    points_sensor=joined["point"].reshape(-1, 3), echoes=echoes,
+                    points_sensor=joined["point"].reshape(-1, 3), echo_table=table, echoes=echoes,
                     sample_rate=band.sample_rate, start_time=band.start_time,
                     carrier=band.carrier)
 

@@ -99,6 +99,16 @@ class Beamformer:
         ((R,) or a scalar), each channel read at its delay (5) by linear interpolation and
         phase-aligned at the carrier. W covers the largest delay. Shape (R, n_blocks N_rx L).
         """
+        data, columns, blocks = self._weights(directions, carriers, fractions, blocks)
+        rows, n_rx = len(data), data.shape[1] // 2
+        n_blocks = int(blocks.max(initial=0)) + 1
+        return sparse.csr_matrix((data.ravel(), columns.ravel(), np.arange(rows + 1) * 2 * n_rx),
+                                 shape=(rows, n_blocks * n_rx * (2 * self.window_lag + 2)))
+
+    def _weights(self, directions, carriers, fractions, blocks):
+        """The rows of :meth:`operator` (arguments as there): weights (R, 2 N_rx) and columns
+        (R, 2 N_rx), (1 - frac) and frac at columns c, c + 1 for each channel in turn, and the
+        blocks (R,)."""
         fs = self.band.sample_rate
         delays = self.receive_delays(directions)  # (R, N_rx) [s]
         rows, n_rx = delays.shape
@@ -111,13 +121,9 @@ class Beamformer:
             + (blocks * n_rx * length)[:, None]
         # < 30 rad: phase error < 2e-6 rad
         phase = phasor(2 * np.pi * np.reshape(carriers, (-1, 1)) * delays)
-        # Built directly in CSR form: row r holds (1 - frac) and frac at columns c, c + 1 per
-        # channel.
         data = np.stack([(1 - frac) * phase, frac * phase], axis=-1).reshape(rows, -1)
         columns = np.stack([cols, cols + 1], axis=-1).reshape(rows, -1)
-        n_blocks = int(blocks.max(initial=0)) + 1
-        return sparse.csr_matrix((data.ravel(), columns.ravel(), np.arange(rows + 1) * 2 * n_rx),
-                                 shape=(rows, n_blocks * n_rx * length))
+        return data, columns, blocks
 
     def windows(self, channels: np.ndarray, sets, samples) -> np.ndarray:
         """(N_rx x L, E) windows for :meth:`operator`: column e holds channel set ``sets[e]`` of
@@ -200,3 +206,29 @@ class Beamformer:
                            vertex(power[d, i + 1, j], peak, power[d, i + 1, j + 2]), 0.0)
         return direction_from_fov_angles(h0 + offsets[i] + s.arrival_step * along_h,
                                          v0 + offsets[j] + s.arrival_step * along_v)
+
+    def aligned(self, channels: np.ndarray, sets, carriers, samples, directions) -> np.ndarray:
+        """(E, N_rx) channel values of E looks: channel set ``sets[e]`` of ``channels`` (S, N_rx,
+        N) demodulated at ``carriers[e]`` [Hz], each channel read at (fractional) sample
+        ``samples[e]`` plus its delay (5) towards ``directions[e]`` (E, 3) and phase-aligned,
+        as :meth:`operator` reads them (their sum is the beam)."""
+        k = np.floor(samples).astype(np.int64)
+        data, columns, _ = self._weights(np.asarray(directions, dtype=float), carriers,
+                                         samples - k, np.arange(len(k)))
+        windows = self.windows(channels, sets, k).T.ravel()
+        return (data * windows[columns]).reshape(len(k), -1, 2).sum(axis=-1)
+
+    def coherence(self, channels: np.ndarray, sets, carriers, beams, samples,
+                  directions) -> np.ndarray:
+        """(D,) fraction of the receive channels' power at (fractional) ``samples`` (D,)
+        explained by one plane wave from ``directions`` (D, 3): |sum_j x_j|^2 / (N_rx sum_j
+        |x_j|^2) with x_j of :meth:`aligned`, numerator and denominator each summed over the
+        looks e of beam ``beams[e]`` (channel set ``sets[e]`` demodulated at ``carriers[e]``
+        [Hz], as in :meth:`arrival_directions`); NaN where the channels are silent."""
+        beams = np.asarray(beams, np.int64)
+        x = self.aligned(channels, sets, carriers, np.asarray(samples)[beams],
+                         np.asarray(directions)[beams])
+        beam, total = np.zeros((2, len(directions)))
+        np.add.at(beam, beams, np.abs(x.sum(axis=1)) ** 2)
+        np.add.at(total, beams, x.shape[1] * np.sum(np.abs(x) ** 2, axis=1))
+        return np.divide(beam, total, out=np.full(len(total), np.nan), where=total > 0)

@@ -1,16 +1,21 @@
 """Detection decisions of the receiver: settings, results, envelope peaks, bistatic depth (7).
 
-What the decisions are and why: :mod:`mitsonar.signal.receiver`. Everything here works on B
-beams at once, as arrays with a leading beam axis.
+What the decisions are and why: :mod:`mitsonar.signal.receiver` (one echo per beam) and
+:mod:`mitsonar.signal.multiecho` (every echo). Everything here works on B beams at once, as
+arrays with a leading beam axis.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 import numpy as np
 
 from mitsonar.validation import check_positive
+
+
+#: The settings of :attr:`DetectionSettings.echoes`.
+ECHO_MODES = ("first", "all", "cells")
 
 
 @dataclass(frozen=True)
@@ -18,8 +23,16 @@ class DetectionSettings:
     """Receiver decision parameters.
 
     Attributes:
-        detection_snr: threshold over the RMS noise envelope (5 gives a false-alarm probability
-            of exp(-25) per sample).
+        echoes: which echoes of a beam are reported (:class:`Echoes`): "first" (the default:
+            the strongest accepted one, the single detection of :mod:`~mitsonar.signal.receiver`,
+            unchanged), "all" (every echo over the range profile, each at its own arrival
+            direction and bistatic depth) or "cells" ("all", plus a point for every independent
+            range cell across extended echoes); :mod:`mitsonar.signal.multiecho`.
+        detection_snr: threshold over the RMS noise envelope, eta (a ratio): noise alone
+            exceeds it with probability exp(-eta^2) per sample and gives N eta exp(-eta^2)
+            false echoes per beam, N = 2 sqrt(pi) b T the independent cells of a window of T
+            [s] (b: the rms bandwidth of the matched-filter output; 5: 3e-9 per beam for the
+            TCT40 pulse; :func:`~mitsonar.signal.multiecho.expected_false_alarms`).
         detection_floor: absolute threshold on the envelope [Pa] (matters without noise).
         blanking_margin: factor over the direct-path envelope a detection must exceed.
         min_range: nearest depth reported [m].
@@ -29,11 +42,21 @@ class DetectionSettings:
         ghost_grid_step: spacing of the receive directions checked [rad].
         ghost_half_span: the checked directions cover +-this horizontally and vertically [rad]
             (wider than the field of view: side-lobe echoes come from anywhere in front).
-        max_candidates: envelope peaks examined, strongest first.
+        max_candidates: envelope peaks examined, strongest first ("first"; the other settings of
+            ``echoes`` examine every peak).
         part_balance: for waveforms with ``parts``, the weakest part's envelope over the
             strongest's that a candidate needs (in (0, 1]; an echo carries both equally).
         arrival_step: grid step of the arrival-direction estimate within the main lobe [rad]
             (:mod:`mitsonar.signal.receiver`; 0: every point on the beam axis, as the paper).
+        clutter_margin: factor by which every echo ("all", "cells") must exceed what the
+            stronger echoes of the recording leave there: their range side lobes and ringing
+            (amplitude times the waveform's normalised autocorrelation envelope at the lag) and,
+            in an OFDM cycle, the other codes' cross-talk
+            (:class:`~mitsonar.signal.multiecho.Clutter`).
+        min_coherence: "all" and "cells" keep an echo only where this fraction (in [0, 1]) of
+            the receive channels' power at its instant is explained by one plane wave from its
+            arrival direction (:class:`Echoes` ``coherence``; echoes without an arrival-direction
+            estimate are kept, range cells are not).
     """
 
     detection_snr: float = 5.0
@@ -47,10 +70,22 @@ class DetectionSettings:
     max_candidates: int = 8
     part_balance: float = 0.3
     arrival_step: float = np.radians(0.5)
+    echoes: str = "first"
+    clutter_margin: float = 2.0
+    min_coherence: float = 0.6
 
     def __post_init__(self):
+        if self.echoes not in ECHO_MODES:
+            raise ValueError(f"DetectionSettings.echoes must be one of {', '.join(ECHO_MODES)}, "
+                             f"got {self.echoes!r}")
+        if self.echoes == "cells" and not self.arrival_step > 0:
+            raise ValueError("DetectionSettings.echoes = 'cells' needs arrival directions "
+                             "(arrival_step [rad] > 0)")
+        if not 0 <= self.min_coherence <= 1:
+            raise ValueError(f"DetectionSettings.min_coherence must be in [0, 1], "
+                             f"got {self.min_coherence}")
         for name in ("detection_snr", "detection_floor", "blanking_margin", "min_range",
-                     "ghost_exclusion", "ghost_grid_step", "ghost_half_span"):
+                     "ghost_exclusion", "ghost_grid_step", "ghost_half_span", "clutter_margin"):
             check_positive(f"DetectionSettings.{name}", getattr(self, name))
         if not (np.isfinite(self.ghost_margin) and self.ghost_margin >= 0):
             raise ValueError(f"DetectionSettings.ghost_margin must be >= 0, "
@@ -95,9 +130,68 @@ class Detection:
 
 
 @dataclass(frozen=True)
+class Echoes:
+    """Every echo reported for a set of beams, one row each (E rows), sorted by beam and rank
+    (:attr:`DetectionSettings.echoes` says which echoes). Points are in the sensor frame of the
+    beam's pose.
+
+    Attributes:
+        beam: (E,) index of the row's beam.
+        rank: (E,) 0 for the beam's strongest echo (its :class:`Detections` entry), then its
+            other echoes by decreasing amplitude, then its range cells by decreasing amplitude.
+        peak: (E,) True for an echo (its envelope peak, refined by a parabola), False for a
+            range cell across an extended echo (read at its sample).
+        amplitude: (E,) envelope [Pa].
+        snr: (E,) amplitude over the beam's RMS noise envelope (a ratio, not dB).
+        time_of_arrival: (E,) [s] from the beam's firing.
+        path_length: (E,) c * time_of_arrival [m].
+        depth: (E,) distance of the point from the transmit origin, (7) [m].
+        point: (E, 3) reflector [m].
+        direction: (E, 3) unit vector the echo arrived from (the beam's direction without an
+            arrival-direction estimate).
+        coherence: (E,) fraction of the receive channels' power at that instant explained by one
+            plane wave from ``direction``, summed over the looks (1: a single arrival; about
+            1 / N_rx for noise; NaN without an arrival-direction estimate).
+    """
+
+    beam: np.ndarray
+    rank: np.ndarray
+    peak: np.ndarray
+    amplitude: np.ndarray
+    snr: np.ndarray
+    time_of_arrival: np.ndarray
+    path_length: np.ndarray
+    depth: np.ndarray
+    point: np.ndarray
+    direction: np.ndarray
+    coherence: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.beam)
+
+    def arrays(self, prefix: str = "") -> dict:
+        """The columns as named arrays, each name preceded by ``prefix``."""
+        return {prefix + f.name: getattr(self, f.name) for f in fields(self)}
+
+    def take(self, rows) -> Echoes:
+        """The rows ``rows`` (indices or a boolean mask), in that order."""
+        return Echoes(**{name: value[rows] for name, value in self.arrays().items()})
+
+    @classmethod
+    def gather(cls, tables, beams) -> Echoes:
+        """One table of several: table i's beam indices mapped through ``beams[i]`` (e.g. a
+        batch's or a cycle's beams among all of a scan's or frame's), sorted by beam and rank."""
+        joined = {f.name: np.concatenate([getattr(t, f.name) for t in tables])
+                  for f in fields(cls)}
+        joined["beam"] = np.concatenate([np.asarray(b)[t.beam] for t, b in zip(tables, beams)])
+        return cls(**joined).take(np.lexsort((joined["rank"], joined["beam"])))
+
+
+@dataclass(frozen=True)
 class Detections:
     """Results of processing B beams: the fields of :class:`Detection` stacked along a leading
-    beam axis, (B,) or (B, 3); ``detections[b]`` is beam b's :class:`Detection`."""
+    beam axis, (B,) or (B, 3); ``detections[b]`` is beam b's :class:`Detection`: its strongest
+    echo, rank 0 of :attr:`echoes` (every accepted echo, one row each)."""
 
     detected: np.ndarray
     time_of_arrival: np.ndarray
@@ -107,6 +201,7 @@ class Detections:
     direction: np.ndarray
     amplitude: np.ndarray
     threshold: np.ndarray
+    echoes: Echoes
 
     def __len__(self) -> int:
         return len(self.detected)
@@ -122,6 +217,25 @@ def bistatic_depth(path_length, baseline: float, cos_beam_baseline) -> np.ndarra
     """Equation (7): depth [m] from path length l [m], baseline b [m] and cos(theta_b)."""
     l = np.asarray(path_length, dtype=float)
     return (l**2 - baseline**2) / (2.0 * (l - baseline * np.asarray(cos_beam_baseline)))
+
+
+def bistatic_point(path_length, direction, centre, tx_origin, rx_origin) -> np.ndarray:
+    """Points (E, 3) [m] c + r u along unit directions u (E, 3) measured from ``centre`` c (3,)
+    (the receive array's phase centre) whose path from ``tx_origin`` (3,) to the point and back
+    to ``rx_origin`` (3,) is ``path_length`` l (E,) [m]: (7) with the direction's own origin.
+    With A = c - tx_origin, B = c - rx_origin, the distances to the two origins are
+    alpha + beta r and l - alpha - beta r, alpha = (l + (|A|^2 - |B|^2) / l) / 2,
+    beta = (A - B).u / l, and r is the positive root of
+    (1 - beta^2) r^2 + 2 (A.u - alpha beta) r + |A|^2 - alpha^2 = 0."""
+    l = np.asarray(path_length, dtype=float)
+    u = np.asarray(direction, dtype=float)
+    a, b = np.subtract(centre, tx_origin), np.subtract(centre, rx_origin)
+    alpha = (l + (a @ a - b @ b) / l) / 2
+    beta = u @ (a - b) / l
+    half_b = u @ a - alpha * beta
+    quadratic = 1 - beta**2
+    r = (np.sqrt(half_b**2 - quadratic * (a @ a - alpha**2)) - half_b) / quadratic
+    return centre + r[:, None] * u
 
 
 def vertex(y0, y1, y2) -> np.ndarray:

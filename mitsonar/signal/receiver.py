@@ -12,7 +12,9 @@ Order and choices:
   side-lobe check in one sparse product per carrier for the strongest candidate of every beam
   and one for the other candidates of the beams whose strongest was rejected (look after look:
   a candidate rejected in one look is not checked in the next), the arrival directions of
-  every detected beam in one more. One beam is the case B = 1.
+  every detected beam in one more. One beam is the case B = 1. Everything after the channels'
+  FFT also runs from channel spectra on the band handed in directly
+  (:meth:`EchoProcessor.process_spectra`: the detection-only path of OFDM frames).
 * Matched filter (6) with the expected echo shape (drive pulse through both transducer
   responses), normalised so that an echo of path gain A gives an envelope peak of |A| [Pa].
   Beamforming and filtering share one FFT per channel and one inverse FFT, and are computed on
@@ -49,18 +51,34 @@ Order and choices:
   With an arrival direction, (7) is solved from the receive side instead (range r from o_R along
   u_a, theta_b measured from the RX -> TX vector): point = o_R + r u_a, and the depth is the
   point's distance from the transmit origin.
+* Every echo (``echoes`` = "all" or "cells", :mod:`mitsonar.signal.multiecho`): instead of the
+  strongest candidate, every echo over the local clutter and every independent range cell
+  across extended echoes, each through the same part balance and side-lobe check, each with
+  its own arrival direction, kept where that direction is trustworthy (``min_coherence``).
+  These are placed from the receive array's phase centre c (its element centroid, where the
+  delay-and-sum measures the arrival): point = c + r u_a with r from (7) for the path from the
+  transmit origin to the point and back to o_R. (The single-detection path above places from
+  o_R, as it always has; at 1-4 m that puts its points about 8 mm aside, along c - o_R.) The
+  strongest echo of each beam is its :class:`~mitsonar.signal.detection.Detections` entry; all
+  are in :class:`~mitsonar.signal.detection.Echoes`.
 """
 
 from __future__ import annotations
+
+from dataclasses import replace
 
 import numpy as np
 
 from mitsonar.physics.array import ArrayGeometry
 from mitsonar.signal.band import Band, Recording
 from mitsonar.signal.beamforming import Beamformer, dot
-from mitsonar.signal.detection import (Detection, Detections, DetectionSettings, bistatic_depth,
-                                       candidates, vertex)
+from mitsonar.signal import multiecho
+from mitsonar.signal.detection import (Detection, Detections, DetectionSettings, Echoes,
+                                       bistatic_depth, bistatic_point, candidates, vertex)
 
+#: Cross-talk between the waveforms of one recording is followed out to the lags where their
+#: range profiles fall below this (:meth:`EchoProcessor._crosstalk`).
+CROSS_FLOOR = 1e-4
 #: Channel sets of the looks transformed together (bounds the memory of an OFDM cycle's looks:
 #: ~10 MB per set of 25 channels).
 LOOK_BATCH = 4
@@ -86,6 +104,8 @@ class EchoProcessor:
         self.noise_rms = float(noise_rms)
         self.beamformer = Beamformer(geometry, band, speed_of_sound, settings)
         self._filters = {}
+        self._profiles = {}
+        self._crosstalks = {}
 
     def _matched_filter(self, waveform=None):
         """(filter spectrum on the band (nb,), template energy) of a waveform: conj(W) / E,
@@ -96,6 +116,14 @@ class EchoProcessor:
             energy = float(np.sum(np.abs(w) ** 2)) / self.band.n_fft  # Parseval
             self._filters[key] = (np.conj(w[self.band.bins]) / energy, energy)
         return self._filters[key]
+
+    def range_profile(self, waveform=None) -> tuple[np.ndarray, float]:
+        """:func:`~mitsonar.signal.multiecho.range_profile` of a waveform on the band (|R| by lag
+        (N,), tau_r [samples]), computed once."""
+        key = self.band.pulse if waveform is None else waveform
+        if key not in self._profiles:
+            self._profiles[key] = multiecho.range_profile(self.band, key)
+        return self._profiles[key]
 
     def noise_envelope_rms(self, waveform=None) -> float:
         """RMS of the beamformed matched-filter envelope of receiver noise alone [Pa]."""
@@ -159,10 +187,23 @@ class EchoProcessor:
         shared = isinstance(recordings, Recording)
         start_time = (recordings if shared else recordings[0]).start_time
         samples = recordings.samples if shared else np.stack([r.samples for r in recordings])
+        return self.process_spectra(self.band.band_spectra(samples), start_time,
+                                    samples.shape[-1], directions, direct_envelopes, waveforms,
+                                    transmit_times, max_path_length)
+
+    def process_spectra(self, spectra: np.ndarray, start_time: float, n: int, directions,
+                        direct_envelopes: np.ndarray | None = None, waveforms=None,
+                        transmit_times=0.0,
+                        max_path_length: float | None = None) -> tuple[np.ndarray, Detections]:
+        """:meth:`process_beams` of the channels' spectra on the band, (N_rx, nb) shared by
+        every beam or (B, N_rx, nb) one set per beam, whose recordings start at ``start_time``
+        [s] with ``n`` samples (other arguments as there). The detection-only path of an OFDM
+        frame hands its synthesised spectra and band noise here, without recordings
+        (:meth:`~mitsonar.sensors.ofdm_sonar.OfdmSonar.frame`); both paths share every decision
+        from here on."""
+        shared = spectra.ndim == 2
         u = np.asarray(directions, dtype=float).reshape(-1, 3)
-        n = samples.shape[-1]
         waves = _Waveforms(self, waveforms, len(u))
-        spectra = self.band.band_spectra(samples)
         beamformed = self.beamformer.beamformed(spectra, u)
         # Each part of a code is a tone: its own envelope, and an exact carrier for the looks.
         beams, look = np.nonzero((waves.looks >= 0) & waves.has_parts[:, None])
@@ -179,7 +220,7 @@ class EchoProcessor:
         looks = _Looks(self, spectra, waves, start_time, n) \
             if s.ghost_margin > 0 or s.arrival_step > 0 else None
         return envelopes, self._decide(envelopes, start_time, u, direct_envelopes, waves,
-                                       transmit_times, max_path_length, balanced, looks)
+                                       transmit_times, max_path_length, balanced, looks, shared)
 
     def detect(self, envelope: np.ndarray, start_time: float, direction,
                direct_envelope: np.ndarray | None = None, waveform=None,
@@ -204,11 +245,11 @@ class EchoProcessor:
                             np.ones(envelopes.shape, bool))[0]
 
     def _decide(self, envelopes, start_time, u, direct_envelopes, waves, transmit_times,
-                max_path_length, balanced, looks=None) -> Detections:
+                max_path_length, balanced, looks=None, shared=False) -> Detections:
         """:class:`Detections` of B beams from their envelopes (B, N) [Pa] (arguments as in
-        :meth:`process_beams`; ``balanced`` (B, N): where the parts are balanced). With the
-        beams' looks, the side-lobe check and the arrival direction; without, every candidate
-        is taken to arrive along its beam."""
+        :meth:`process_beams`; ``balanced`` (B, N): where the parts are balanced; ``shared``:
+        one recording for all). With the beams' looks, the side-lobe check and the arrival
+        direction; without, every candidate is taken to arrive along its beam."""
         s, g = self.settings, self.geometry
         fs = self.band.sample_rate
         count, n = envelopes.shape
@@ -227,47 +268,163 @@ class EchoProcessor:
             window &= path <= max_path_length
         if not np.all(np.any(window, axis=1)):
             raise ValueError("the recording ends before the minimum range")
-        every = np.arange(count)
-        k_max = np.argmax(np.where(window, envelopes, -np.inf), axis=1)
-        out = dict(detected=np.zeros(count, bool), time_of_arrival=np.full(count, np.nan),
-                   path_length=np.full(count, np.nan), depth=np.full(count, np.nan),
-                   point=np.full((count, 3), np.nan), direction=np.full((count, 3), np.nan),
-                   amplitude=envelopes[every, k_max], threshold=threshold[every, k_max])
-        beams, samples, ranks = candidates(envelopes, window & (envelopes > threshold) & balanced,
-                                           s.max_candidates)
+        loud = envelopes > threshold
+        if s.echoes == "first":
+            beams, samples = self._strongest_echoes(envelopes, window & loud & balanced, u,
+                                                    looks)
+            cells = (np.zeros(0, np.int64),) * 2
+        else:
+            crosstalk = self._crosstalk(u, waves, transmit) if shared else None
+            beams, samples, cells = self._every_echo(envelopes, loud, window, balanced, u, waves,
+                                                     looks, crosstalk)
+        return self._report(envelopes, threshold, window, start_time, transmit, u, waves, looks,
+                            beams, samples, cells)
+
+    def _strongest_echoes(self, envelopes, accepted, u, looks):
+        """(beams, samples) of each beam's strongest candidate that arrives along it, by beam
+        (``echoes`` = "first"); ``accepted`` (B, N): where a candidate may be."""
+        s = self.settings
+        beams, samples, ranks = candidates(envelopes, accepted, s.max_candidates)
         if looks is not None and s.ghost_margin > 0:
             # Each beam's strongest candidate first; the others where it arrives off the beam.
             strongest = ranks == 0
             passed = strongest.copy()
             passed[strongest] = self._pass_side_lobe_check(looks, u, beams[strongest],
                                                            samples[strongest])
-            done = np.zeros(count, bool)
+            done = np.zeros(len(envelopes), bool)
             done[beams[passed]] = True
             retry = (ranks > 0) & ~done[beams]
             passed[retry] = self._pass_side_lobe_check(looks, u, beams[retry], samples[retry])
             beams, samples = beams[passed], samples[passed]
         found, first = np.unique(beams, return_index=True)  # each beam's strongest left
-        k = samples[first]
-        sample = k + vertex(envelopes[found, k - 1], envelopes[found, k], envelopes[found, k + 1])
-        toa = start_time - transmit[found] + sample / fs
+        return found, samples[first]
+
+    def _every_echo(self, envelopes, loud, window, balanced, u, waves, looks, crosstalk):
+        """(beams, samples) of every echo of B beams and (beams, samples) of their range cells
+        (``echoes`` = "all": none), each that arrives along its beam
+        (:mod:`mitsonar.signal.multiecho`). Masks (B, N): ``loud`` the envelope over the
+        threshold, ``window`` the listening window, ``balanced`` the parts balanced; the
+        echoes outside the window count as clutter too (a far wall's echo leaks into the window
+        of other codes). ``crosstalk``: the beams' cross-talk in a shared recording
+        (:meth:`_crosstalk`) or None."""
+        s = self.settings
+        lobes, resolution = waves.range_profiles(self)
+        resolution = resolution[waves.kind]
+        peaks = np.zeros(envelopes.shape, bool)
+        peaks[:, 1:-1] = (envelopes[:, 1:-1] >= envelopes[:, :-2]) \
+            & (envelopes[:, 1:-1] > envelopes[:, 2:])
+        clutter = multiecho.Clutter(lobes, waves.kind, crosstalk)
+        found, resolved = multiecho.echo_peaks(envelopes, peaks & loud, window & balanced,
+                                               resolution, clutter, s.clutter_margin)
+        found = self._along_beam(looks, u, *found)
+        cells = (np.zeros(0, np.int64),) * 2
+        if s.echoes == "cells":
+            cells = multiecho.range_cells(envelopes, window & loud, balanced, resolved, found,
+                                          resolution, clutter, s.clutter_margin)
+            cells = self._along_beam(looks, u, *cells)
+        return found[0], found[1], cells
+
+    def _crosstalk(self, u, waves, transmit):
+        """(|X| (K, K, 2 S + 1), transmit and receive gains (B, B), firing times (B,) [samples])
+        of B beams in one recording (:class:`~mitsonar.signal.multiecho.Clutter`): the envelope
+        an echo of kind k' leaves decoded for kind k at lags -S..S, S the longest range profile
+        above ``CROSS_FLOOR``, each computed once per pair of kinds; the array factors at each
+        beam's own frequency."""
+        span = max(int(np.flatnonzero(self.range_profile(w)[0] >= CROSS_FLOOR).max())
+                   for w in waves.kinds)
+        missing = [(a, b) for a in waves.kinds for b in waves.kinds
+                   if (a, b, span) not in self._crosstalks]
+        if missing:
+            band = self.band
+            # An echo of kind b, decoded for kind a, delayed by S samples (lag -S at sample 0).
+            delay = np.exp(-2j * np.pi * band.frequencies * span / band.sample_rate)
+            spectra = np.stack([band.system_spectrum(b)[band.bins] * self._matched_filter(a)[0]
+                                for a, b in missing]) * delay
+            lobes = np.abs(band.to_analytic(spectra)[:, : 2 * span + 1])
+            self._crosstalks.update(((a, b, span), x) for (a, b), x in zip(missing, lobes))
+        table = np.stack([[self._crosstalks[a, b, span] for b in waves.kinds] for a in waves.kinds])
+        frequencies = np.array([float(w.frequency) for w in waves.kinds])[waves.kind]
+        g = self.geometry
+        return (table, multiecho.array_gains(g.tx_positions, u, frequencies, self.c),
+                multiecho.array_gains(g.rx_positions, u, frequencies, self.c).T,
+                transmit * self.band.sample_rate)
+
+    def _along_beam(self, looks, u, beams, samples):
+        """The (beams, samples) that pass the side-lobe check (all without looks or with
+        ``ghost_margin`` = 0)."""
+        if looks is None or self.settings.ghost_margin <= 0:
+            return beams, samples
+        passed = self._pass_side_lobe_check(looks, u, beams, samples)
+        return beams[passed], samples[passed]
+
+    def _report(self, envelopes, threshold, window, start_time, transmit, u, waves, looks,
+                beams, samples, cells) -> Detections:
+        """:class:`Detections` and :class:`Echoes` of B beams from their echoes (beams,
+        samples), by beam and then by decreasing amplitude, and their range cells (beams,
+        samples): each placed (time of arrival, arrival direction, bistatic depth (7)); with
+        ``echoes`` = "all" or "cells", kept where their direction is trustworthy
+        (``min_coherence``)."""
+        s, g = self.settings, self.geometry
+        fs = self.band.sample_rate
+        count = len(envelopes)
+        peak = np.concatenate([np.ones(len(beams), bool), np.zeros(len(cells[0]), bool)])
+        beams, k = np.concatenate([beams, cells[0]]), np.concatenate([samples, cells[1]])
+        refined = np.where(peak, vertex(envelopes[beams, k - 1], envelopes[beams, k],
+                                        envelopes[beams, k + 1]), 0.0)
+        sample = k + refined
+        toa = start_time - transmit[beams] + sample / fs
         l = self.c * toa
-        if looks is not None and s.arrival_step > 0 and len(found):  # (7) from the receive origin
-            look, beam = np.nonzero(waves.looks[found].T >= 0)  # every beam's first look first
-            sets = looks.sets(found[beam], look)
-            arrival = self.beamformer.arrival_directions(
-                looks.channels, sets, waves.carriers[waves.looks[found[beam], look]], beam,
-                sample, u[found])
-            receive_range = bistatic_depth(l, g.baseline, -dot(arrival, g.rx_origin) / g.baseline)
-            point = g.rx_origin + receive_range[:, None] * arrival
+        coherence = np.full(len(beams), np.nan)
+        if looks is not None and s.arrival_step > 0 and len(beams):  # (7) from the receive side
+            look, row = np.nonzero(waves.looks[beams].T >= 0)  # every row's first look first
+            sets = looks.sets(beams[row], look)
+            carriers = waves.carriers[waves.looks[beams[row], look]]
+            arrival = self.beamformer.arrival_directions(looks.channels, sets, carriers, row,
+                                                         sample, u[beams])
+            coherence = self.beamformer.coherence(looks.channels, sets, carriers, row, sample,
+                                                  arrival)
+            if s.echoes == "first":  # placed from the receive origin, as ever
+                receive_range = bistatic_depth(l, g.baseline,
+                                               -dot(arrival, g.rx_origin) / g.baseline)
+                point = g.rx_origin + receive_range[:, None] * arrival
+            else:  # from the receive array's phase centre, where the arrival is measured
+                point = bistatic_point(l, arrival, g.rx_positions.mean(axis=0), np.zeros(3),
+                                       g.rx_origin)
         else:
-            arrival = u[found]
-            point = bistatic_depth(l, g.baseline, cos_b[found])[:, None] * arrival
-        for name, value in (("detected", True), ("time_of_arrival", toa), ("path_length", l),
-                            ("depth", np.linalg.norm(point, axis=-1)), ("point", point),
-                            ("direction", arrival), ("amplitude", envelopes[found, k]),
-                            ("threshold", threshold[found, k])):
-            out[name][found] = value
-        return Detections(**out)
+            arrival = u[beams]
+            cos_b = dot(u, g.rx_origin) / g.baseline
+            point = bistatic_depth(l, g.baseline, cos_b[beams])[:, None] * arrival
+        # The single-detection path trusts every direction; the others those that one plane wave
+        # explains, and echoes without a measured direction (on the beam axis, as the paper).
+        trusted = (s.echoes == "first") | (coherence >= s.min_coherence) \
+            | (peak & np.isnan(coherence))
+        noise = waves.noise[waves.kind[beams]]
+        with np.errstate(divide="ignore"):  # no receiver noise: infinite SNR
+            snr = envelopes[beams, k] / noise
+        table = Echoes(beam=beams, rank=np.zeros(len(beams), np.int64), peak=peak,
+                       amplitude=envelopes[beams, k], snr=snr, time_of_arrival=toa,
+                       path_length=l, depth=np.linalg.norm(point, axis=-1), point=point,
+                       direction=arrival, coherence=coherence)
+        rows = np.flatnonzero(trusted)
+        rows = rows[np.lexsort((-table.amplitude[rows], ~peak[rows], beams[rows]))]
+        table, k = table.take(rows), k[rows]
+        rank = np.arange(len(rows)) - np.searchsorted(table.beam, table.beam)
+        table = replace(table, rank=rank)
+        every = np.arange(count)
+        k_max = np.argmax(np.where(window, envelopes, -np.inf), axis=1)
+        out = dict(detected=np.zeros(count, bool), time_of_arrival=np.full(count, np.nan),
+                   path_length=np.full(count, np.nan), depth=np.full(count, np.nan),
+                   point=np.full((count, 3), np.nan), direction=np.full((count, 3), np.nan),
+                   amplitude=envelopes[every, k_max], threshold=threshold[every, k_max])
+        first = rank == 0
+        found = table.beam[first]
+        for name, value in (("detected", True), ("time_of_arrival", table.time_of_arrival),
+                            ("path_length", table.path_length), ("depth", table.depth),
+                            ("point", table.point), ("direction", table.direction),
+                            ("amplitude", table.amplitude),
+                            ("threshold", threshold[table.beam, k])):
+            out[name][found] = value if np.ndim(value) == 0 else value[first]
+        return Detections(**out, echoes=table)
 
     def _pass_side_lobe_check(self, looks, u, beams, samples) -> np.ndarray:
         """(E,) True where candidate sample ``samples[e]`` of beam ``beams[e]`` arrives along the
@@ -334,9 +491,9 @@ class _Looks:
 
 
 class _Waveforms:
-    """The drive waveforms of B beams, by kind (distinct waveform): matched filters (K, nb) and
-    noise envelope levels (K,) [Pa]; and their looks (the parts of a code, or the waveform
-    itself): matched filters (T, nb) and carriers (T,) [Hz].
+    """The drive waveforms of B beams, by kind (distinct waveform, :attr:`kinds`): matched
+    filters (K, nb) and noise envelope levels (K,) [Pa]; and their looks (the parts of a code,
+    or the waveform itself): matched filters (T, nb) and carriers (T,) [Hz].
 
     Attributes:
         kind: (B,) each beam's kind.
@@ -351,6 +508,7 @@ class _Waveforms:
             kinds, self.kind = [pulse], np.zeros(count, np.int64)
         else:
             kinds, self.kind = _distinct([pulse if w is None else w for w in waveforms])
+        self.kinds = kinds
         self.filters = np.stack([processor._matched_filter(w)[0] for w in kinds])
         self.noise = np.array([processor.noise_envelope_rms(w) for w in kinds])
         parts = [tuple(getattr(w, "parts", ())) for w in kinds]
@@ -363,6 +521,12 @@ class _Waveforms:
         self.has_parts = np.array([len(p) > 0 for p in parts])[self.kind]
         self.look_filters = np.stack([processor._matched_filter(t)[0] for t in tones])
         self.carriers = np.array([float(t.frequency) for t in tones])
+
+    def range_profiles(self, processor: EchoProcessor) -> tuple[np.ndarray, np.ndarray]:
+        """(|R| by lag (K, N), tau_r (K,) [samples]) of each kind
+        (:meth:`EchoProcessor.range_profile`)."""
+        lobes, resolution = zip(*map(processor.range_profile, self.kinds))
+        return np.stack(lobes), np.array(resolution)
 
 
 def _distinct(items) -> tuple[list, np.ndarray]:

@@ -6,11 +6,14 @@ For one beam direction u (sensor frame):
    u. The grid is regular in a warped tangent-plane coordinate whose density follows the
    transmit beam (dense in the main lobe, ``importance_floor`` of that outside), so each ray owns
    an exactly known cell of solid angle: deterministic importance sampling, no Monte-Carlo noise.
+   A wide transmission (``ray_density='uniform'``) takes cells of equal angle along both axes.
 2. ``scene.ray_intersect`` finds the reflector of every ray (acoustically transparent surfaces are
    stepped through). Each hit is a surface patch: the ray's cell projected on the local tangent
    plane (from analytic ray differentials), with the material of the shape hit.
 3. The incident field on the patch is the coherent sum of the 25 transmit elements, each with its
-   steering delay t_i^D, phase phi_i, piston directivity, spherical spreading and air absorption.
+   steering delay t_i^D, phase phi_i, piston directivity, spherical spreading and air absorption
+   (and amplitude weight: ``transmit_weights``, e.g. one element alone, or the whole array traced
+   towards broadside, where every steering delay is 0: unsteered).
 4. Re-radiation to every receive element (visibility by shadow rays):
    * specular part, physical optics (Kirchhoff) over the patch: j k / (4 pi) r(theta)
      (cos theta_i + cos theta_o) times the patch integral of the linear phase, A sinc sinc, times
@@ -36,7 +39,7 @@ its own pose and seed), which pays the per-call costs once.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import drjit as dr
 import numpy as np
@@ -53,7 +56,7 @@ from mitsonar.scene.loading import AcousticScene, mitsuba
 from mitsonar.physics.waveforms import Pulse
 from mitsonar.trace.paths import Paths
 from mitsonar.physics.transducer import Transducer
-from mitsonar.validation import check_positive, check_range
+from mitsonar.validation import check_finite, check_positive, check_range
 
 #: Offset of secondary ray origins from a surface [m].
 _EPS = 1e-4
@@ -72,6 +75,10 @@ class TraceSettings:
         taper: outer fraction of the cone radius over which contributions fade to 0.
         main_lobe_width: 3 dB width that shapes the ray density [rad].
         importance_floor: ray density outside the main lobe relative to its centre, in (0, 1].
+        ray_density: 'beam' (shaped by the two settings above) or 'uniform' (cells of equal
+            angle along both tangent axes, for wide transmissions).
+        transmit_weights: amplitude weight of each transmit element, (N_tx,) (None: all 1);
+            elements of weight 0 stay silent and are left out of the paths.
         refine: cells at silhouettes, material changes, depth jumps or curved surfaces (normals of
             neighbouring cells differing by more than ``refine_normal_angle``) are split into
             refine x refine sub-rays (1 disables refinement).
@@ -104,6 +111,8 @@ class TraceSettings:
     paper_spacing: float = np.radians(1.25)
     paper_grid: int = 5
     paper_beta: float = 1.0
+    ray_density: str = "beam"
+    transmit_weights: tuple | None = None
 
     def __post_init__(self):
         if self.model not in ("physical", "paper"):
@@ -123,6 +132,15 @@ class TraceSettings:
         check_range("TraceSettings.crosstalk_gain", self.crosstalk_gain, 0.0, 1e3)
         check_positive("TraceSettings.paper_spacing [rad]", self.paper_spacing)
         check_positive("TraceSettings.paper_beta", self.paper_beta)
+        if self.ray_density not in ("beam", "uniform"):
+            raise ValueError(f"TraceSettings.ray_density must be 'beam' or 'uniform', "
+                             f"got {self.ray_density!r}")
+        if self.transmit_weights is not None:
+            weights = tuple(float(w) for w in np.ravel(self.transmit_weights))
+            check_finite("TraceSettings.transmit_weights", np.array(weights))
+            if not any(weights):
+                raise ValueError("TraceSettings.transmit_weights: no element transmits (all 0)")
+            object.__setattr__(self, "transmit_weights", weights)
 
 
 @dataclass(frozen=True)
@@ -211,11 +229,20 @@ class AcousticTracer:
         else:
             half = np.tan(s.cone_half_angle)
             sigma = 1.5 * np.tan(s.main_lobe_width) / 2.355
-            centres, widths = _warped_grid(s.rays_per_axis, half, sigma, s.importance_floor)
+            if s.ray_density == "beam":
+                centres, widths = _warped_grid(s.rays_per_axis, half, sigma, s.importance_floor)
+            else:
+                edges = np.tan(np.linspace(-s.cone_half_angle, s.cone_half_angle,
+                                           s.rays_per_axis + 1))
+                centres, widths = 0.5 * (edges[1:] + edges[:-1]), np.diff(edges)
             aa, bb = np.meshgrid(centres, centres, indexing="ij")
             da, db = np.meshgrid(widths, widths, indexing="ij")
             self._grid = (aa, bb, da, db, np.hypot(aa, bb) <= half)
             self._refinable = np.hypot(aa, bb) <= np.tan(s.refine_radius)
+        self._weights = None if s.transmit_weights is None else np.array(s.transmit_weights)
+        if self._weights is not None and len(self._weights) != geometry.tx.count:
+            raise ValueError(f"TraceSettings.transmit_weights: {len(self._weights)} weights for "
+                             f"{geometry.tx.count} transmit elements")
 
     def _taper(self, a, b):
         """Weight of a ray at tangent-plane offsets (a, b): 1 inside, fading to 0 at the cone edge."""
@@ -479,6 +506,8 @@ class AcousticTracer:
         if s.max_bounces == 2 and s.model == "physical":
             parts += self._second_bounce(rotation, translation, hb, x, n, mats_h, d_h, dd1, dd2,
                                          t[hit], taper, steering, rngs)
+        if self._weights is not None:
+            parts = [(part_beam, self._weighted(part)) for part_beam, part in parts]
         results = []
         bounds = [np.searchsorted(part_beam, np.arange(n_beams + 1)) for part_beam, _ in parts]
         for k in range(n_beams):  # split into beams (hits are ordered by beam)
@@ -486,6 +515,15 @@ class AcousticTracer:
             paths = HitPaths.concatenate([part.select(r) for (_, part), r in zip(parts, rows)])
             results.append(TraceResult(paths, x[rows[0]], mats_h[rows[0]], int(ray_count[k])))
         return results
+
+    def _weighted(self, paths: HitPaths) -> HitPaths:
+        """``paths`` with transmit element i's factors times ``transmit_weights[i]``, the
+        elements of weight 0 left out."""
+        on = np.flatnonzero(self._weights)
+        w = self._weights[on]
+        return replace(paths, tx_delay=paths.tx_delay[:, on], tx_cos=paths.tx_cos[:, on],
+                       tx_sinc=paths.tx_sinc[:, on], tx_specular=paths.tx_specular[:, on] * w,
+                       tx_diffuse=paths.tx_diffuse[:, on] * w)
 
     def _roughness(self, mats, beam, rngs) -> np.ndarray:
         """(H,) unit phasors of the diffuse parts of hits of beams ``beam`` (H,) (ordered by
@@ -554,4 +592,7 @@ class AcousticTracer:
                 * np.exp(1j * (g.tx_phase_offsets[:, None] + g.rx_phase_offsets[None, :])))
         delay = steering[:, None] + r / self.c
         channel = np.broadcast_to(np.arange(g.rx.count), r.shape)
+        if self._weights is not None:  # the transmitting elements, weighted
+            on = self._weights != 0
+            gain, delay, channel = gain[on] * self._weights[on, None], delay[on], channel[on]
         return Paths(gain.ravel(), delay.ravel(), channel.ravel())

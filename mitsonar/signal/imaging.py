@@ -1,0 +1,397 @@
+"""Single-ping receive imaging: the receive image of one recording and its points.
+
+One wide transmission lights the whole field of view at once (RTIS / eRTIS); the receive array
+then forms beams towards every direction of a grid, all from the same recording.
+
+Grid. Directions on a square grid of direction cosines (u_x, u_y), ``sin(step)`` apart (``step``
+at broadside), over the disc |(u_x, u_y)| <= sin(``guard_half_angle``): the whole cone the
+transmission lights, not only the field of view, because echoes from anywhere in it reach the
+field of view through the receive array's side lobes, and predicting those needs their beams
+(below). In direction cosines a beam's main lobe and side lobes have the same shape wherever it
+is steered (:mod:`mitsonar.physics.beampattern`), so the grid samples every beam alike. Points
+come from the directions inside the field of view only (``ArrayGeometry`` ``fov_horizontal`` x
+``fov_vertical``); the others are their neighbours and the side-lobe reference.
+
+Image. Delay-and-sum (5) on the signal band and the matched filter (6), as
+:class:`~mitsonar.signal.receiver.EchoProcessor` forms one beam (the same steering phases, filter
+and scale: an image row equals that beam's envelope), for all D directions x N samples in one
+pass: on the square grid the plane-wave phase exp(-j 2 pi f (x_j u_x + y_j u_y) / c) of receive
+element j factorises into an x and a y part, so the delay-and-sum of every direction is one
+batched matrix product per band bin, (n_y x N_rx) (N_rx x n_x); then one inverse FFT per
+direction, in a few large batches of directions to bound memory.
+
+Points. A cell (direction d, sample k) inside the field of view is a point when
+
+1. it exceeds ``detection_snr`` times the RMS noise envelope
+   (:meth:`~mitsonar.signal.receiver.EchoProcessor.noise_envelope_rms`; at least
+   ``detection_floor``), ``blanking_margin`` times the image of the direct transmitter ->
+   receiver path alone (direct-path blanking), and lies beyond ``min_range``;
+2. it is a range peak: the largest value of its direction within +- one range resolution (the
+   full width at half maximum of an echo's matched-filter envelope,
+   :attr:`ReceiveImager.range_resolution`), so two echoes of one direction further apart than
+   that are two points;
+3. it is the peak of its receive main lobe: no direction within ``ghost_exclusion`` of d is
+   stronger at sample k;
+4. it is no side lobe of another return. The receive array's side lobes are real, and with one
+   wide transmission nothing (no transmit beam) suppresses them: an echo from d0 also shows, at
+   the same instant, in direction d at |AF(d; d0)| (the array factor at the band's centre
+   frequency) times its level; for the shipped sparse 5 x 5 array up to -8 dB (peak side lobe)
+   and -14 dB on average (mean square 1/N_rx: the array spreads most of an echo's power over
+   its side lobes). Two rules, both from the receive pattern:
+
+   * coherent, one return: the cell must exceed ``side_lobe_margin`` times the largest level
+     predicted from any grid direction d0 outside its main lobe, max over d0 of
+     image(d0, k) |AF(d; d0)|;
+   * incoherent, many returns (clutter): several echoes arriving at once (walls, floor and
+     ceiling at the same path length, inside the field of view or not) add their side lobes
+     with unrelated phases into a Rayleigh-distributed clutter whose power is the image's mean
+     power over the grid at that instant. The cell must exceed ``clutter_margin`` times that
+     RMS; clutter alone exceeds it with probability exp(-clutter_margin^2) per cell (1.2e-4 at
+     the default 3).
+
+   The clutter rule sets how many points a ping gives: measured on the shipped rooms, a few per
+   ping with narrow-band 40 kHz echoes, whose side lobes do not average out over frequency
+   (docs/imaging.md).
+
+Each point is placed as the receiver places a detection with its arrival direction: the
+direction refined between grid directions by a parabola through the image power along u_x and
+u_y, the time of arrival by a parabola through the envelope, and the bistatic depth (7) solved
+from the receive side (range r from the receive origin o_R along the arrival direction u_a, with
+the baseline from o_R to the transmit centre): point = o_R + r u_a.
+
+False alarms. On noise alone the image is the envelope of a complex Gaussian field, stationary
+in time and in direction cosines; a cell exceeds the threshold with probability
+exp(-detection_snr^2). How many separate peaks do (:meth:`ReceiveImager.expected_false_alarms`)
+is the expected Euler characteristic of the field's excursion set above the threshold (Adler and
+Taylor; chi-square fields: Worsley 1994), which counts its blobs when the threshold is high:
+sum_j L_j rho_j(2 snr^2), with the Lipschitz-Killing curvatures L_j of the searched volume (the
+field of view x the listening window, measured in the field's roughness: 2 pi x the echo
+spectrum's rms bandwidth in time; in direction cosines the rms wavenumber times the receive
+elements' spread) and the densities rho_j of a chi-square field with 2 degrees of freedom.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.ndimage import maximum_filter1d
+
+from mitsonar.physics.array import ArrayGeometry
+from mitsonar.physics.beampattern import array_factor, in_fov
+from mitsonar.signal.band import Band, Recording
+from mitsonar.signal.beamforming import dot
+from mitsonar.signal.detection import DetectionSettings, bistatic_depth, vertex
+from mitsonar.signal.receiver import EchoProcessor
+from mitsonar.validation import check_positive, check_range
+
+#: Directions whose envelopes are transformed together (bounds the complex temporaries).
+DIRECTION_BATCH = 256
+#: Candidate cells whose side-lobe levels are predicted together (bounds a (batch, D) array).
+CANDIDATE_BATCH = 1024
+
+
+@dataclass(frozen=True)
+class ImagingSettings:
+    """Grid and detection rule of receive imaging (module docstring).
+
+    Attributes:
+        step: spacing of the receive directions at broadside [rad] (sin(step) in direction
+            cosines).
+        detection_snr: threshold over the RMS noise envelope (a cell of noise exceeds it with
+            probability exp(-detection_snr^2)).
+        detection_floor: absolute threshold on the image [Pa] (needed without receiver noise).
+        side_lobe_margin: factor over the side-lobe level predicted from any other single return
+            at the same instant that a point must exceed.
+        clutter_margin: factor over the RMS of the image over the grid at the same instant that a
+            point must exceed.
+    """
+
+    step: float = np.radians(2.0)
+    detection_snr: float = 5.0
+    detection_floor: float = 0.0
+    side_lobe_margin: float = 2.0
+    clutter_margin: float = 3.0
+
+    def __post_init__(self):
+        check_range("ImagingSettings.step [rad]", self.step, 1e-3, np.radians(10))
+        check_positive("ImagingSettings.detection_snr", self.detection_snr)
+        for name in ("detection_floor", "side_lobe_margin", "clutter_margin"):
+            value = getattr(self, name)
+            if not (np.isfinite(value) and value >= 0):
+                raise ValueError(f"ImagingSettings.{name} must be >= 0, got {value}")
+
+
+@dataclass(frozen=True)
+class ImagePoints:
+    """The P points of one image.
+
+    Attributes:
+        points: (P, 3) reflectors in the sensor frame [m].
+        direction: (P, 3) unit arrival directions (from the receive origin).
+        path_length: (P,) transmit centre -> reflector -> receive origin [m].
+        amplitude: (P,) image value at the point [Pa].
+        snr: (P,) amplitude over the RMS noise envelope.
+        cell: (P, 2) grid direction and sample of each point's cell.
+    """
+
+    points: np.ndarray
+    direction: np.ndarray
+    path_length: np.ndarray
+    amplitude: np.ndarray
+    snr: np.ndarray
+    cell: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.points)
+
+
+class ReceiveImager:
+    """Receive images of recordings on one band, and their points; built once per sensor and
+    reused (grid, steering factors, side-lobe table).
+
+    Args:
+        geometry: the arrays (receive layout, field of view).
+        band: the recordings' band.
+        speed_of_sound: c [m/s].
+        detection: the receiver settings used here: ``min_range``, ``blanking_margin`` and
+            ``ghost_exclusion`` (the half-angle of the receive main lobe).
+        noise_rms: receiver noise per sample [Pa] (as for :class:`EchoProcessor`).
+        transmit_centre: (3,) where the transmission leaves from, sensor frame [m].
+        guard_half_angle: the grid covers the cone of this half-angle about broadside [rad]
+            (the transmission's; it must contain the field of view).
+        settings: grid step and detection rule.
+    """
+
+    def __init__(self, geometry: ArrayGeometry, band: Band, speed_of_sound: float,
+                 detection: DetectionSettings, noise_rms: float, transmit_centre,
+                 guard_half_angle: float, settings: ImagingSettings = ImagingSettings()):
+        check_range("guard_half_angle [rad]", guard_half_angle, settings.step, np.radians(89))
+        self.geometry = geometry
+        self.band = band
+        self.c = float(speed_of_sound)
+        self.detection = detection
+        self.settings = settings
+        #: Grid spacing in direction cosines.
+        self.spacing = float(np.sin(settings.step))
+        count = int(np.floor(np.sin(guard_half_angle) / self.spacing))
+        axis = np.arange(-count, count + 1) * self.spacing
+        uy, ux = np.meshgrid(axis, axis, indexing="ij")
+        #: (n, n) shape of the square grid: rows along u_y, columns along u_x.
+        self.shape = ux.shape
+        disc = np.hypot(ux, uy) <= np.sin(guard_half_angle)
+        uz = np.sqrt(np.maximum(1.0 - ux**2 - uy**2, 0.0))
+        #: (D, 3) the grid's directions (unit vectors inside the guard disc, zeros outside).
+        self.directions = np.where(disc[..., None], np.stack([ux, uy, uz], axis=-1), 0.0
+                                   ).reshape(-1, 3)
+        #: (D,) directions inside the guard disc, and the field of view's among them.
+        self.valid = disc.ravel()
+        self.in_fov = self.valid & in_fov(np.where(self.valid[:, None], self.directions, 1.0),
+                                          geometry.fov_horizontal, geometry.fov_vertical)
+        edge = np.zeros(self.shape, bool)
+        edge[[0, -1], :] = edge[:, [0, -1]] = True
+        if np.any(self.in_fov & edge.ravel()):
+            raise ValueError("guard_half_angle must exceed the field of view's half-diagonal")
+        self._fov_rows = np.flatnonzero(self.in_fov)
+        offsets = geometry.rx_positions - geometry.rx_origin
+        # Steering factors of (5) on the band: exp(-j 2 pi f x_j u_x / c) (nb, N_rx, n) and
+        # exp(-j 2 pi f y_j u_y / c) (nb, n, N_rx), divided by N_rx.
+        f = band.frequencies[:, None, None]
+        self._along_x = np.exp(-2j * np.pi * f * offsets[None, :, 0, None] * axis / self.c
+                               ).astype(np.complex64) / len(offsets)
+        self._along_y = np.exp(-2j * np.pi * f * axis[:, None] * offsets[None, None, :, 1]
+                               / self.c).astype(np.complex64)
+        processor = EchoProcessor(geometry, band, speed_of_sound, detection, noise_rms)
+        #: RMS of the image of receiver noise alone [Pa].
+        self.noise_level = processor.noise_envelope_rms()
+        system = band.system_spectrum()
+        energy = float(np.sum(np.abs(system) ** 2)) / band.n_fft  # as the receiver's filter
+        self._filter = np.conj(system[band.bins]) / energy
+        self.threshold = max(settings.detection_snr * self.noise_level, settings.detection_floor)
+        if self.threshold <= 0:
+            raise ValueError("imaging without receiver noise needs ImagingSettings."
+                             "detection_floor > 0")
+        self.range_resolution, self._range_window = self._resolution()
+        centre, _ = band.band_moments()
+        self._main_lobe = np.sin(detection.ghost_exclusion)
+        self._side_lobes, self._lobe = self._lobe_tables(offsets, 2 * np.pi * centre / self.c)
+        baseline = np.asarray(transmit_centre, dtype=float) - geometry.rx_origin
+        self._baseline = float(np.linalg.norm(baseline))
+        self._baseline_unit = baseline / max(self._baseline, 1e-300)
+        # Path length of the nearest reported range in each direction [m].
+        r = detection.min_range
+        self._min_path = r + np.linalg.norm(geometry.rx_origin + r * self.directions
+                                            - transmit_centre, axis=1)
+
+    def _resolution(self) -> tuple[float, int]:
+        """(full width at half maximum of an echo's matched-filter envelope [s], the same in
+        whole samples, at least 1): from the autocorrelation of the system spectrum."""
+        band = self.band
+        envelope = np.abs(band.to_analytic(np.abs(band.system_spectrum()[band.bins]) ** 2))
+        below = int(np.argmax(envelope < 0.5 * envelope[0]))  # lag 0 is the peak
+        a, b = envelope[below - 1], envelope[below]
+        half = below - 1 + (a - 0.5 * envelope[0]) / (a - b)  # [samples]
+        return 2 * half / band.sample_rate, max(1, int(round(2 * half)))
+
+    def _lobe_tables(self, offsets, wavenumber: float):
+        """(F, D) |AF| from every grid direction into each field-of-view direction (0 within
+        its main lobe), and (F, M) the grid directions within its main lobe (self excluded)."""
+        n = self.shape[0]
+        step = np.arange(-(n - 1), n) * self.spacing  # every difference of two grid directions
+        dy, dx = np.meshgrid(step, step, indexing="ij")
+        shift = np.stack([dx, dy, np.zeros_like(dx)], axis=-1)
+        pattern = array_factor(offsets, np.zeros(3), shift, wavenumber)  # (2n - 1, 2n - 1)
+        distance = np.hypot(dx, dy)
+        row, col = np.divmod(self._fov_rows, n)
+        grid_row, grid_col = np.divmod(np.arange(n * n), n)
+        index = (row[:, None] - grid_row + n - 1, col[:, None] - grid_col + n - 1)
+        outside = distance[index] >= self._main_lobe
+        side_lobes = np.where(outside & self.valid, pattern[index], 0.0).astype(np.float32)
+        inside = ~outside & (distance[index] > 0)
+        width = int(inside.sum(axis=1).max())
+        nearest = np.argsort(~inside, axis=1, kind="stable")[:, :width]
+        return side_lobes, nearest
+
+    def envelopes(self, spectra: np.ndarray) -> np.ndarray:
+        """Image (D, n_samples) [Pa], float32: the matched-filtered delay-and-sum envelope
+        towards every grid direction (zero outside the guard disc) of channel spectra on the
+        band (N_rx, nb) (:meth:`Band.band_spectra <mitsonar.signal.band.Band.band_spectra>` of a
+        recording, or a synthesised spectrum)."""
+        weighted = spectra.T.astype(np.complex64)[:, :, None] * self._along_x  # (nb, N_rx, n)
+        beams = np.matmul(self._along_y, weighted).reshape(len(spectra.T), -1).T  # (D, nb)
+        out = np.zeros((len(beams), self.band.n_samples), np.float32)
+        rows = np.flatnonzero(self.valid)
+        for first in range(0, len(rows), DIRECTION_BATCH):  # bounded inverse FFTs
+            batch = rows[first: first + DIRECTION_BATCH]
+            out[batch] = np.abs(self.band.to_analytic(beams[batch] * self._filter))
+        return out
+
+    def image(self, recording: Recording) -> np.ndarray:
+        """Image (D, N) [Pa] of a recording (:meth:`envelopes` of its spectra)."""
+        return self.envelopes(self.band.band_spectra(recording.samples))
+
+    def points(self, image: np.ndarray, start_time: float,
+               direct_image: np.ndarray | None = None) -> ImagePoints:
+        """The points of an image (D, N) [Pa] whose sample 0 is ``start_time`` [s] after the
+        transmission (module docstring); ``direct_image`` (D, N): the image of the direct path
+        alone, for blanking."""
+        s, fs = self.settings, self.band.sample_rate
+        fov = self._fov_rows
+        sub = image[fov]
+        n = image.shape[1]
+        path = self.c * (start_time + np.arange(n) / fs)
+        level = self.threshold if direct_image is None \
+            else np.maximum(self.threshold, self.detection.blanking_margin * direct_image[fov])
+        window = path[None, :] >= self._min_path[fov, None]
+        window[:, [0, -1]] = False
+        peaks = sub >= maximum_filter1d(sub, 2 * self._range_window + 1, axis=1, mode="constant")
+        row, k = np.nonzero((sub > level) & window & peaks)
+        value = sub[row, k]
+        keep = value >= image[self._lobe[row], k[:, None]].max(axis=1, initial=0.0)
+        row, k, value = row[keep], k[keep], value[keep]
+        # RMS over the grid at each instant (rows outside the guard disc are 0), (N,).
+        clutter = np.sqrt(np.einsum("dn,dn->n", image, image, dtype=float) / self.valid.sum())
+        keep = (value > s.side_lobe_margin * self._side_lobe_levels(image, row, k)) \
+            & (value > s.clutter_margin * clutter[k])
+        row, k, value = row[keep], k[keep], value[keep].astype(float)
+        d = fov[row]
+        apparent = self.directions[d, :2] + self.spacing * self._peak_offsets(image, d, k)
+        sample = k + vertex(image[d, k - 1], value, image[d, k + 1])
+        length = self.c * (start_time + sample / fs)
+        arrival = _unit_direction(apparent)
+        for _ in range(2):  # (7) and the near-field correction depend on each other, weakly
+            receive_range = bistatic_depth(length, self._baseline,
+                                           dot(arrival, self._baseline_unit))
+            arrival = _unit_direction(apparent + self._near_field_shift(arrival, receive_range))
+        receive_range = bistatic_depth(length, self._baseline, dot(arrival, self._baseline_unit))
+        points = self.geometry.rx_origin + receive_range[:, None] * arrival
+        snr = value / self.noise_level if self.noise_level > 0 else np.full(len(value), np.inf)
+        return ImagePoints(points, arrival, length, value, snr, np.stack([d, k], axis=1))
+
+    def _near_field_shift(self, direction: np.ndarray, distance: np.ndarray) -> np.ndarray:
+        """(P, 2) what to add to the (u_x, u_y) of the peak of the plane-wave beams (5) to get
+        the direction of a source at ``distance`` (P,) [m] from the receive origin in
+        ``direction`` (P, 3). Within the array's far-field distance (2 x (10 cm)^2 / 8.5 mm =
+        2.3 m) element j hears the source q_j = (|p_j|^2 - (p_j . u)^2) / (2 r) later than a
+        plane wave from u; the beam that best aligns these delays (least squares) peaks
+        C^-1 cov(p, q) before u (C: the covariance of the positions p_j in the array plane)."""
+        p = self.geometry.rx_positions[:, :2] - self.geometry.rx_origin[:2]
+        along = direction[:, :2] @ p.T  # (P, N_rx)
+        late = (np.sum(p**2, axis=1) - along**2) / (2 * distance[:, None])
+        centred = p - p.mean(axis=0)
+        covariance = (late - late.mean(axis=1, keepdims=True)) @ centred / len(p)  # (P, 2)
+        return np.linalg.solve(np.cov(p.T, bias=True), covariance.T).T
+
+    def _peak_offsets(self, image: np.ndarray, d: np.ndarray, k: np.ndarray) -> np.ndarray:
+        """(P, 2) offsets [grid steps] along u_x and u_y of the main-lobe peaks around grid
+        directions d at samples k: the vertex of the quadratic through the log of the image at d
+        and its 8 neighbours (exact for a Gaussian lobe, whose axes need not be the grid's), or,
+        where that has no maximum within a step, of the parabolas along each axis."""
+        n_x = self.shape[1]
+        near = np.log(np.maximum(np.stack([image[d + dy * n_x + dx, k] for dy in (-1, 0, 1)
+                                           for dx in (-1, 0, 1)], axis=-1), 1e-30))
+        near = near.astype(float).reshape(-1, 3, 3)  # [p, y, x]
+        gx = 0.5 * (near[:, 1, 2] - near[:, 1, 0])
+        gy = 0.5 * (near[:, 2, 1] - near[:, 0, 1])
+        hxx = near[:, 1, 2] - 2 * near[:, 1, 1] + near[:, 1, 0]
+        hyy = near[:, 2, 1] - 2 * near[:, 1, 1] + near[:, 0, 1]
+        hxy = 0.25 * (near[:, 2, 2] - near[:, 2, 0] - near[:, 0, 2] + near[:, 0, 0])
+        det = hxx * hyy - hxy**2
+        safe = np.where(det > 0, det, 1.0)
+        joint = np.stack([(hxy * gy - hyy * gx) / safe, (hxy * gx - hxx * gy) / safe], axis=-1)
+        axes = np.stack([vertex(near[:, 1, 0], near[:, 1, 1], near[:, 1, 2]),
+                         vertex(near[:, 0, 1], near[:, 1, 1], near[:, 2, 1])], axis=-1)
+        maximum = (det > 0) & (hxx < 0) & np.all(np.abs(joint) <= 1.0, axis=-1)
+        return np.where(maximum[:, None], joint, axes)
+
+    def _side_lobe_levels(self, image: np.ndarray, row: np.ndarray, k: np.ndarray) -> np.ndarray:
+        """(P,) the largest side-lobe level that a grid direction outside the main lobe of cell
+        (field-of-view direction ``row``, sample k) puts into it: max over d0 of
+        image(d0, k) |AF(d; d0)|."""
+        out = np.zeros(len(row))
+        for first in range(0, len(row), CANDIDATE_BATCH):  # bounded (batch, D) products
+            rows = slice(first, first + CANDIDATE_BATCH)
+            out[rows] = (image[:, k[rows]].T * self._side_lobes[row[rows]]).max(axis=1)
+        return out
+
+    def expected_false_alarms(self, n_samples: int, start_time: float,
+                              detection_snr: float | None = None) -> float:
+        """Expected number of points per image of receiver noise alone (module docstring): the
+        expected Euler characteristic of the excursion set above ``detection_snr`` (default: the
+        settings') times the RMS noise envelope, over the field of view and the listening window
+        (from the minimum range to the last of ``n_samples`` samples from ``start_time`` [s])."""
+        snr = self.settings.detection_snr if detection_snr is None else detection_snr
+        check_positive("detection_snr", snr)
+        band, g = self.band, self.geometry
+        centre, rms_bandwidth = band.band_moments()
+        first = np.mean(self._min_path[self.in_fov]) / self.c - start_time  # [s] from sample 0
+        duration = max((n_samples - 1) / band.sample_rate - first, 0.0)
+        time_length = duration * 2 * np.pi * rms_bandwidth  # L_1 of the window
+        # The field of view's outline in direction cosines, in the field's metric there: the
+        # mean square wavenumber times the covariance of the receive elements' positions.
+        metric = (2 * np.pi / self.c) ** 2 * (centre**2 + rms_bandwidth**2) \
+            * np.cov(g.rx_positions[:, :2].T, bias=True)
+        h, v = np.tan(g.fov_horizontal / 2), np.tan(g.fov_vertical / 2)
+        corners = np.array([(-h, -v), (h, -v), (h, v), (-h, v), (-h, -v)])
+        steps = np.linspace(0.0, 1.0, 256, endpoint=False)[:, None, None]
+        outline = (corners[:-1] + steps * (corners[1:] - corners[:-1])).transpose(1, 0, 2)
+        outline = outline.reshape(-1, 2)  # tangents of the angles, around the field of view
+        u = outline / np.sqrt(1.0 + np.sum(outline**2, axis=1, keepdims=True))
+        w = u @ np.linalg.cholesky(metric)  # |w| is the metric length
+        x, y = w[:, 0], w[:, 1]
+        area = 0.5 * abs(np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y))
+        half_perimeter = 0.5 * np.sum(np.linalg.norm(w - np.roll(w, -1, axis=0), axis=1))
+        # Lipschitz-Killing curvatures of (field of view) x (window), and the EC densities of a
+        # chi-square field with 2 degrees of freedom at t = 2 snr^2.
+        lkc = [1.0, half_perimeter + time_length, area + half_perimeter * time_length,
+               area * time_length]
+        t = 2 * snr**2
+        tail = np.exp(-t / 2)
+        density = [tail, np.sqrt(t) * tail / np.sqrt(2 * np.pi), (t - 1) * tail / (2 * np.pi),
+                   np.sqrt(t) * (t - 3) * tail / (2 * np.pi) ** 1.5]
+        return float(np.dot(lkc, density))
+
+
+def _unit_direction(u_xy: np.ndarray) -> np.ndarray:
+    """Unit vectors (P, 3) towards +z with direction cosines ``u_xy`` (P, 2)."""
+    return np.concatenate([u_xy, np.sqrt(1.0 - np.sum(u_xy**2, axis=1, keepdims=True))], axis=1)

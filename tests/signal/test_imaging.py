@@ -1,0 +1,150 @@
+"""Receive imaging (mitsonar.signal.imaging) on synthesised point reflectors and on noise alone.
+
+Echoes are synthesised from exact spherical-wave paths (transmit element -> reflector -> each
+receive element), so the tests check the image, the detection rule and the placement against
+known reflectors, without the tracer.
+"""
+
+import numpy as np
+import pytest
+
+import mitsonar
+from mitsonar.frames import direction_from_fov_angles
+from mitsonar.sensors.sonar import PRE_ROLL
+from mitsonar.signal.band import Band
+from mitsonar.signal.imaging import ImagingSettings, ReceiveImager
+from mitsonar.signal.receiver import EchoProcessor
+from mitsonar.signal.synthesis import EchoSynthesizer
+from mitsonar.trace.paths import Paths
+
+CONFIG = mitsonar.SonarConfig()
+GEOMETRY = CONFIG.geometry
+C = CONFIG.medium.speed_of_sound
+#: The transmit element nearest the transmit origin (ImagingSonar's default transmission).
+TRANSMITTER = GEOMETRY.tx_positions[2]
+#: Path gain of the reflectors [Pa]: SNR ~150 against the default receiver noise.
+GAIN = 1e-2
+
+
+@pytest.fixture(scope="module")
+def chain():
+    """(band, synthesizer, imager) of the default configuration, grid over a 45 deg cone."""
+    cfg = CONFIG
+    band = Band(cfg.pulse, cfg.transducer, cfg.sample_rate, -PRE_ROLL, cfg.record_duration,
+                cfg.transducer_response, floor=cfg.band_floor, baseband=cfg.baseband)
+    imager = ReceiveImager(GEOMETRY, band, C, cfg.detection, cfg.noise_rms, TRANSMITTER,
+                           np.radians(45))
+    return band, EchoSynthesizer(band), imager
+
+
+def _reflectors(points, gain=GAIN) -> Paths:
+    """Exact paths of point reflectors (P, 3) [m], sensor frame, lit by TRANSMITTER."""
+    points = np.asarray(points, dtype=float)
+    rx = GEOMETRY.rx_positions
+    delay = (np.linalg.norm(points - TRANSMITTER, axis=1)[:, None]
+             + np.linalg.norm(points[:, None] - rx[None], axis=-1)) / C
+    gains = np.broadcast_to(np.reshape(gain, (-1, 1)), delay.shape).astype(complex)
+    return Paths(gains.ravel(), delay.ravel(), np.tile(np.arange(len(rx)), len(points)))
+
+
+def _image(chain, paths, seed, imager=None):
+    band, synth, default = chain
+    imager = imager or default
+    noiseless = np.zeros((GEOMETRY.rx.count, band.n_samples), complex) if paths is None \
+        else band.to_samples(synth.group_spectrum(paths, None, GEOMETRY.rx.count))
+    recording = synth.recording(noiseless, CONFIG.noise_rms, seed=seed)
+    image = imager.image(recording)
+    return image, imager.points(image, recording.start_time)
+
+
+def _targets(horizontal_deg, vertical_deg, ranges):
+    """Points at ``ranges`` [m] from the receive origin towards field-of-view angles [deg]."""
+    u = direction_from_fov_angles(np.radians(horizontal_deg), np.radians(vertical_deg))
+    return GEOMETRY.rx_origin + np.asarray(ranges)[:, None] * u
+
+
+def test_an_image_row_is_the_receivers_beam(chain):
+    """The separable delay-and-sum on the direction-cosine grid against the receiver's
+    (EchoProcessor.noiseless_envelopes) towards the same directions, on noise: the same
+    envelopes within the single precision of the steering factors."""
+    band, synth, imager = chain
+    recording = synth.recording(np.zeros((GEOMETRY.rx.count, band.n_samples), complex),
+                                CONFIG.noise_rms, seed=3)
+    spectra = band.band_spectra(recording.samples)
+    rows = np.flatnonzero(imager.valid)[::97]
+    processor = EchoProcessor(GEOMETRY, band, C, CONFIG.detection, CONFIG.noise_rms)
+    beams = processor.noiseless_envelopes(spectra, imager.directions[rows])
+    image = imager.envelopes(spectra)
+    np.testing.assert_allclose(image[rows], beams, rtol=0, atol=2e-6 * beams.max())
+    assert not image[~imager.valid].any()
+
+
+def test_point_reflectors_are_placed_within_5_mm(chain):
+    """Six reflectors across the field of view at 1.2-3.1 m, two of them in one direction 0.5 m
+    apart: six points, each within 5 mm of its reflector (measured <= 4.3 mm: 0.1 deg of
+    direction after the near-field correction, 2 mm of range), and no other."""
+    targets = _targets([-20, -5, 12, 25, 3, 3], [10, -12, 4, -15, 15, 15],
+                       [1.2, 1.9, 2.5, 3.1, 1.5, 2.0])
+    for seed in (0, 1):
+        _, found = _image(chain, _reflectors(targets), seed)
+        error = np.linalg.norm(found.points[:, None] - targets[None], axis=-1)
+        assert len(found) == len(targets)
+        assert np.all(error.min(axis=1) <= 5e-3), error.min(axis=1)
+        assert sorted(error.argmin(axis=1)) == list(range(len(targets)))
+        assert np.all(found.snr > 100)  # 2e-2 Pa over the 6.7e-5 Pa noise envelope
+
+
+def test_two_echoes_of_one_direction_count_once_within_the_range_resolution(chain):
+    """Two equal reflectors in one direction: two points when their paths differ by 1.5 range
+    resolutions, one when by half of one (the matched-filter envelope's width, 0.38 m of
+    path, 0.19 m of range)."""
+    _, _, imager = chain
+    resolution = imager.range_resolution * C / 2  # [m] of range
+    for apart, expected in ((1.5, 2), (0.5, 1)):
+        targets = _targets([8, 8], [-6, -6], [1.6, 1.6 + apart * resolution])
+        _, found = _image(chain, _reflectors(targets), seed=2)
+        assert len(found) == expected, (apart, len(found))
+
+
+def test_side_lobes_of_a_strong_return_are_not_points(chain):
+    """One strong reflector (SNR ~ 5000): its side lobes rise far above the noise threshold all
+    over the image, yet only the reflector is a point (either rule alone rejects them); without
+    the side-lobe and clutter rules its side lobes would be points too (measured: 16)."""
+    band, synth, imager = chain
+    target = _targets([14], [-9], [1.4])
+    image, found = _image(chain, _reflectors(target, gain=0.3), seed=4)
+    assert len(found) == 1 and np.linalg.norm(found.points[0] - target[0]) < 5e-3
+    bare = ReceiveImager(GEOMETRY, band, C, CONFIG.detection, CONFIG.noise_rms, TRANSMITTER,
+                         np.radians(45), ImagingSettings(side_lobe_margin=0, clutter_margin=0))
+    assert len(bare.points(image, band.start_time)) >= 10
+
+
+@pytest.mark.parametrize("step_deg, low", [(1.0, 0.5), (2.0, 0.5)])
+def test_noise_alone_gives_the_design_false_alarm_rate(chain, step_deg, low):
+    """Noise-only recordings at a lowered threshold (detection_snr 3; the clutter rule, which on
+    noise alone only repeats the threshold, off): points per image within a factor of two of
+    the design value (expected Euler characteristic of the continuous image, 9.4 per image).
+    Measured over 12 images: 1.04 x the design on a 1 deg grid, 0.65 x on the default 2 deg
+    grid (peaks between its directions are seen lower)."""
+    band, _, _ = chain
+    settings = ImagingSettings(step=np.radians(step_deg), detection_snr=3.0, clutter_margin=0)
+    imager = ReceiveImager(GEOMETRY, band, C, CONFIG.detection, CONFIG.noise_rms, TRANSMITTER,
+                           np.radians(40), settings)
+    design = imager.expected_false_alarms(band.n_samples, band.start_time)
+    counts = [len(_image(chain, None, seed, imager)[1]) for seed in range(12)]
+    assert low * design <= np.mean(counts) <= 2 * design, (np.mean(counts), design)
+    # At the default threshold (detection_snr 5) the design is ~5e-6 false points per image.
+    assert imager.expected_false_alarms(band.n_samples, band.start_time, 5.0) < 1e-5
+
+
+def test_bad_settings_are_one_clear_error(chain):
+    band, _, _ = chain
+    with pytest.raises(ValueError, match="ImagingSettings.step"):
+        ImagingSettings(step=0.0)
+    with pytest.raises(ValueError, match="clutter_margin"):
+        ImagingSettings(clutter_margin=-1.0)
+    with pytest.raises(ValueError, match="detection_floor"):
+        ReceiveImager(GEOMETRY, band, C, CONFIG.detection, 0.0, TRANSMITTER, np.radians(45))
+    with pytest.raises(ValueError, match="half-diagonal"):
+        ReceiveImager(GEOMETRY, band, C, CONFIG.detection, CONFIG.noise_rms, TRANSMITTER,
+                      np.radians(30))
