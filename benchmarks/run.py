@@ -219,8 +219,9 @@ def main(argv=None) -> int:
 
     depth_slow = paper.processor.process(Recording(slow, fast.sample_rate, fast.start_time), u)[1].depth
     report("fast synthesis speed-up", t_slow / t_fast, "x", 1.0, "direct (1)(3) summation", goal=100)
-    print(f"{'  same paths: max difference':<34s} {error:12.3g} of peak; depth difference "
-          f"{abs(depth_fast - depth_slow) * 1000:.4f} mm")
+    depths = "neither detects" if np.isnan(depth_fast) and np.isnan(depth_slow) else \
+        f"depth difference {abs(depth_fast - depth_slow) * 1000:.4f} mm"
+    print(f"{'  same paths: max difference':<34s} {error:12.3g} of peak; {depths}")
     lines.append(("synthesis error", error, error))
 
     from peer_sionna import peer_lines  # benchmarks/peer_sionna.py, beside this script
