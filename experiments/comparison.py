@@ -3,11 +3,14 @@ depth camera on the four shipped scenes, from the same robot poses, scored again
 
 The sonar runs in the mode the paper uses for each scene: surfel scanning on the structural
 scenes (room_glass, structure), OFDM repeated scanning on the furnished ones (office, workshop).
-The robot poses are ``--frames`` instants spread evenly over the scene's default trajectory,
-start to end: the surfel poses, or the start poses of the OFDM frames (each frame fired while the
-robot drives; the frames in between are not simulated). The LiDAR and the depth camera take one
-frame at each of these robot poses, in the same loaded scene. Every frame is placed with its true
-pose (no odometry drift), so consistency reflects the sensors alone.
+Every sensor drives the scene's whole default trajectory (or its first ``--duration`` seconds)
+at the trajectory's speed (0.2 m/s, 30 deg/s on the spot) and takes what it would take there in
+that time, at its own rate, in the same loaded scene: the sonar fires OFDM frames back to back
+(4.8 frames/s with 117 beams) in repeated mode; in surfel mode the camera takes a 25 Hz frame
+whenever the sonar is free and the sonar pings every 30 ms (its listening time); the VLP-16
+turns at 10 Hz (each column fired at its own time), the Kinect v2 takes 30 frames/s. Every
+beam, frame or column is placed with the pose it was taken from (no odometry drift), so
+consistency reflects the sensors alone.
 
 Sonar settings: ``--preset`` (default 'paper', on which the surfel pipeline is tuned; see
 docs/reconstruction.md). Surfel mode uses 800 px images (at 400 px room_glass's planes grow
@@ -19,17 +22,19 @@ paper's one pose per frame smears what the robot passes while it drives or turns
 Scoring (:func:`mitsonar.evaluation.metrics.evaluate`, 2 cm threshold). Every cloud is first thinned to one
 point per 1 cm voxel, the ground truth's resolution (the paper samples its surfel map at 1 cm;
 without this, the depth camera's overlapping frames would outnumber everything else): a seeded
-random point of each voxel, not the mean, so noise is not averaged away. Completeness counts the
-ground-truth samples in line of sight of at least one sensor position (glass occludes), the same
-for all three sensors. Glass is also scored on its own: the LiDAR and the depth camera look
-through it, the sonar does not.
+random point of each voxel, not the mean, so noise is not averaged away; the baselines' frames
+are thinned as they come (:class:`VoxelThinner`: a Kinect v2 along a two-minute trajectory
+returns some 10^9 points). Completeness counts the ground-truth samples in line of sight of the
+sensor head at least once a second along the drive (glass occludes), the same for all three
+sensors. Glass is also scored on its own: the LiDAR and the depth camera look through it, the
+sonar does not.
 
 Writes comparison.csv/.md (a row per scene and sensor), per_material.csv/.md, comparison.png (top
 views coloured by the distance to the ground truth, scenes x sensors), and per reconstruction
 <scene>/<sensor>.ply (points with their distance) and <scene>/<sensor>_errors.png.
 
-    .venv/bin/python experiments/comparison.py --out out/comparison            # ~15 min, 2 cores
-    .venv/bin/python experiments/comparison.py --quick --out out/comparison    # ~40 s
+    .venv/bin/python experiments/comparison.py --out out/comparison            # hours, 2 cores
+    .venv/bin/python experiments/comparison.py --quick --out out/comparison    # ~1 min
 """
 
 from __future__ import annotations
@@ -44,14 +49,14 @@ from pathlib import Path
 import numpy as np
 
 import mitsonar
-from mitsonar.sensors.baselines import DepthCamera, Lidar, map_trajectory
+from mitsonar.sensors.baselines import DepthCamera, Lidar, sweep
 from mitsonar.io import write_ply, write_table
 from mitsonar.recon.repeated import RepeatedMapSpec, map_repeated
 from mitsonar.evaluation.metrics import (DEFAULT_THRESHOLD, Evaluation, evaluate, sample_surface,
                               save_error_figure, visible_from)
 from mitsonar.plots import _pyplot, save_png
 from mitsonar.scene.mesh import scene_mesh
-from mitsonar.recon.surfels import SurfelSettings, map_surfels
+from mitsonar.recon.surfels import SurfelSettings, map_surfels_along
 from mitsonar.sensors.trajectory import sensor_poses
 from mitsonar.recon.voxelmap import VoxelMapSettings
 
@@ -63,6 +68,9 @@ SENSORS = {"sonar": "sonar", "lidar": "VLP-16", "depth_camera": "Kinect v2"}
 THIN_VOXEL = 0.01
 #: Voxel size of the repeated-scanning map [m].
 REPEATED_VOXEL = 0.02
+#: The ground truth counts as observable where the sensor head sees it at least once in this
+#: many seconds of driving [s].
+VIEW_PERIOD = 1.0
 #: Top views drop points this close to the floor and to the ceiling [m].
 FLOOR_MARGIN = 0.15
 CEILING_MARGIN = 0.3
@@ -75,7 +83,7 @@ class RunSettings:
     """How each scene is reconstructed.
 
     Attributes:
-        frames: robot poses per scene (surfel poses or OFDM frames).
+        duration: seconds of each scene's trajectory driven; None: all of it.
         width: surfel camera image width [pixels]; spp: its samples per pixel.
         step: OFDM beam grid step [rad].
         spacing: ground-truth sample spacing [m].
@@ -83,7 +91,7 @@ class RunSettings:
         seed: seeds the sonar, the baselines' noise, the samples and the thinning.
     """
 
-    frames: int
+    duration: float | None
     width: int
     spp: int
     step: float
@@ -94,40 +102,68 @@ class RunSettings:
 
 @dataclass(frozen=True)
 class Reconstruction:
-    """One scored cloud: points (N, 3) [m] (thinned), points before thinning, the evaluation and
-    the wall-clock time of the reconstruction [s]."""
+    """One scored cloud: points (N, 3) [m] (thinned), points before thinning, the sensor's
+    frames along the drive (sonar: camera frames in surfel mode, OFDM frames in repeated
+    mode), the evaluation and the wall-clock time of the reconstruction [s]."""
 
     points: np.ndarray
     raw_points: int
+    frames: int
     evaluation: Evaluation
     seconds: float
 
 
-def thin(points, voxel: float = THIN_VOXEL, seed: int = 0) -> np.ndarray:
-    """Points (M, 3) [m] of ``points`` (N, 3): one per occupied ``voxel`` [m] cube, a seeded
-    random one of its points."""
-    p = np.asarray(points, dtype=float).reshape(-1, 3)
-    order = np.random.default_rng(seed).permutation(len(p))
-    _, first = np.unique(np.floor(p[order] / voxel).astype(np.int64), axis=0, return_index=True)
-    return p[np.sort(order[first])]
+class VoxelThinner:
+    """One point per occupied ``voxel`` [m] cube of all the points added, a seeded random one
+    of them (each point draws a key from ``default_rng(seed)`` as it comes; a cube keeps its
+    smallest-key point), kept as the points come: at most ``batch`` points wait between two
+    compactions."""
+
+    def __init__(self, voxel: float = THIN_VOXEL, seed: int = 0, batch: int = 4_000_000):
+        self.voxel, self.batch = voxel, batch
+        self.rng = np.random.default_rng(seed)
+        self.points, self.keys = np.zeros((0, 3)), np.zeros(0)
+        self.waiting, self.raw = [], 0
+
+    def add(self, points) -> None:
+        """Add points (N, 3) [m]."""
+        self.waiting.append(np.asarray(points, dtype=float).reshape(-1, 3))
+        self.raw += len(self.waiting[-1])
+        if sum(len(p) for p in self.waiting) >= self.batch:
+            self._compact()
+
+    def _compact(self) -> None:
+        new = np.concatenate(self.waiting) if self.waiting else np.zeros((0, 3))
+        points = np.concatenate([self.points, new])
+        keys = np.concatenate([self.keys, self.rng.random(len(new))])
+        cells = np.floor(points / self.voxel).astype(np.int64)
+        order = np.lexsort((keys, cells[:, 2], cells[:, 1], cells[:, 0]))
+        first = np.ones(len(order), dtype=bool)
+        first[1:] = np.any(np.diff(cells[order], axis=0) != 0, axis=1)
+        keep = np.sort(order[first])
+        self.points, self.keys, self.waiting = points[keep], keys[keep], []
+
+    def result(self) -> np.ndarray:
+        """The thinned points (M, 3) [m]."""
+        self._compact()
+        return self.points
 
 
-def sonar_cloud(path: Path, mode: str, trajectory, times, settings: RunSettings, progress):
-    """The loaded :class:`mitsonar.Sonar` and its reconstruction (N, 3) [m] at ``times`` [s]."""
+def sonar_cloud(path: Path, mode: str, trajectory, settings: RunSettings, progress):
+    """The loaded :class:`mitsonar.Sonar`, its reconstruction (N, 3) [m] along the drive and the
+    number of its camera frames (surfel mode) or OFDM frames (repeated mode)."""
     config = mitsonar.SonarConfig.preset(settings.preset)
     if mode == "surfel":
         sonar = mitsonar.Sonar(path, config)
         surfel = SurfelSettings(image_width=settings.width, spp=settings.spp, seed=settings.seed)
-        surfel_map = map_surfels(sonar, sensor_poses(trajectory.poses_at(times)), settings=surfel,
-                                 progress=progress)
-        return sonar, surfel_map.sample(THIN_VOXEL, seed=settings.seed)[0]
+        surfel_map = map_surfels_along(sonar, trajectory, surfel, settings.duration, progress)
+        return sonar, surfel_map.sample(THIN_VOXEL, seed=settings.seed)[0], len(surfel_map.scans)
     broadband = replace(config, transducer=mitsonar.Transducer(bandwidth_6db=20e3))
     sonar = mitsonar.Sonar(path, broadband)
-    spec = RepeatedMapSpec(frames=len(times), interval=times[1] if len(times) > 1 else None,
-                           scan_step=settings.step, seed=settings.seed,
+    spec = RepeatedMapSpec(duration=settings.duration, scan_step=settings.step, seed=settings.seed,
                            voxels=VoxelMapSettings(voxel_size=REPEATED_VOXEL))
-    voxels, _, _ = map_repeated(sonar, trajectory, spec, progress)
-    return sonar, voxels.positions
+    voxels, _, scanned = map_repeated(sonar, trajectory, spec, progress)
+    return sonar, voxels.positions, len(scanned)
 
 
 def run_scene(name: str, settings: RunSettings) -> tuple[dict, dict]:
@@ -137,39 +173,50 @@ def run_scene(name: str, settings: RunSettings) -> tuple[dict, dict]:
     path = SCENES / name / "scene.xml"
     mode = MODES[name]
     trajectory = mitsonar.Trajectory.from_scene(path)
-    times = np.linspace(0.0, trajectory.duration, settings.frames)
-    robot = trajectory.poses_at(times)
-    clouds, seconds = {}, {}
+    driven = trajectory.driven(settings.duration)
+    clouds, seconds, frames = {}, {}, {}
     start = time.perf_counter()
-    # surfel mode may visit each pose more than once (scan, then check pings): no fixed total
-    total = len(times) if mode == "repeated" else None
-    with tqdm(total=total, desc=f"{name}: sonar ({mode})", unit="step", file=sys.stderr) as bar:
-        sonar, clouds["sonar"] = sonar_cloud(path, mode, trajectory, times, settings,
-                                             lambda _: bar.update())
+    with tqdm(desc=f"{name}: sonar ({mode})", file=sys.stderr) as bar:
+        def step(*at):  # surfel mode: the time driven [s]; repeated: (frame, frames)
+            bar.total = round(driven, 1) if mode == "surfel" else at[1]
+            bar.update((round(at[0], 1) - bar.n) if mode == "surfel" else 1)
+
+        sonar, cloud, frames["sonar"] = sonar_cloud(path, mode, trajectory, settings, step)
+    clouds["sonar"] = VoxelThinner(seed=settings.seed)
+    clouds["sonar"].add(cloud)
     seconds["sonar"] = time.perf_counter() - start
     for key, sensor in (("lidar", Lidar(sonar.scene)), ("depth_camera", DepthCamera(sonar.scene))):
         start = time.perf_counter()
-        clouds[key] = map_trajectory(sensor, robot, seed=settings.seed)[0]
+        clouds[key] = VoxelThinner(seed=settings.seed)
+        rate = sensor.model.rate
+        for _, points in tqdm(sweep(sensor, trajectory, settings.duration, settings.seed),
+                              total=len(trajectory.times_at_rate(rate, settings.duration)),
+                              desc=f"{name}: {SENSORS[key]} at {rate:g} Hz", unit="frame",
+                              file=sys.stderr):
+            clouds[key].add(points)
+        frames[key] = len(trajectory.times_at_rate(rate, settings.duration))
         seconds[key] = time.perf_counter() - start
     mesh = scene_mesh(sonar.scene)
     samples = sample_surface(mesh, settings.spacing, settings.seed)
-    viewpoints = np.array([p.translation for p in sensor_poses(robot)])
+    views = trajectory.poses_at(np.arange(0.0, driven + 1e-9, VIEW_PERIOD))
+    viewpoints = np.array([p.translation for p in sensor_poses(views)])
     observable = visible_from(sonar.scene, samples.points, viewpoints)
     out = {}
-    for key, cloud in clouds.items():
-        points = thin(cloud, seed=settings.seed)
-        out[key] = Reconstruction(points, len(cloud), evaluate(points, mesh, samples=samples,
-                                                               observable=observable),
+    for key, thinner in clouds.items():
+        points = thinner.result()
+        out[key] = Reconstruction(points, thinner.raw, frames[key],
+                                  evaluate(points, mesh, samples=samples, observable=observable),
                                   seconds[key])
         score = out[key].evaluation.overall
-        print(f"{name} {SENSORS[key]:9s}: {score.points} points, {100 * score.accuracy:.1f} % "
-              f"within 2 cm, completeness {100 * score.completeness:.1f} %, "
-              f"{seconds[key]:.0f} s", file=sys.stderr)
+        print(f"{name} {SENSORS[key]:9s}: {frames[key]} frames, {score.points} points, "
+              f"{100 * score.accuracy:.1f} % within 2 cm, completeness "
+              f"{100 * score.completeness:.1f} %, {seconds[key]:.0f} s", file=sys.stderr)
     info = json.loads(path.with_name("ground_truth.json").read_text())
+    info["driven"] = driven
     band = (samples.points[:, 2] > 0.9) & (samples.points[:, 2] < 1.1)  # the scene at 1 m
     outline = samples.points[band][np.random.default_rng(0).permutation(int(band.sum()))[:40_000]]
     scene_info = {"mode": mode, "height": info["height_m"], "extent": info["interior_extent_m"],
-                  "viewpoints": viewpoints, "outline": outline}
+                  "viewpoints": viewpoints, "outline": outline, "driven": driven}
     return out, scene_info
 
 
@@ -178,9 +225,10 @@ def label(key: str, mode: str) -> str:
     return f"{SENSORS[key]} ({mode})" if key == "sonar" else SENSORS[key]
 
 
-def summary_row(scene: str, mode: str, key: str, rec: Reconstruction, frames: int) -> dict:
+def summary_row(scene: str, info: dict, key: str, rec: Reconstruction) -> dict:
     o, g = rec.evaluation.overall, rec.evaluation.per_optics["transparent"]
-    return {"scene": scene, "sensor": key, "mode": mode if key == "sonar" else "", "frames": frames,
+    return {"scene": scene, "sensor": key, "mode": info["mode"] if key == "sonar" else "",
+            "driven_s": info["driven"], "frames": rec.frames,
             "raw_points": rec.raw_points, "points": o.points, "accuracy": o.accuracy,
             "mean_distance_m": o.mean_distance, "median_distance_m": o.median_distance,
             "p90_distance_m": o.p90_distance, "completeness": o.completeness, "fscore": o.fscore,
@@ -192,8 +240,9 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, default=Path("out/comparison"))
     parser.add_argument("--scenes", default=",".join(MODES), help="comma separated subset")
-    parser.add_argument("--frames", type=int, default=16,
-                        help="robot poses per scene, spread over its trajectory (default 16)")
+    parser.add_argument("--duration", type=float, default=None,
+                        help="drive only the first DURATION seconds of each scene's trajectory "
+                             "(default: all of it)")
     parser.add_argument("--width", type=int, default=800,
                         help="surfel camera image width [pixels] (default 800)")
     parser.add_argument("--spp", type=int, default=8,
@@ -203,24 +252,24 @@ def main(argv=None) -> int:
                         help="sonar model (SonarConfig.preset; default paper)")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--quick", action="store_true",
-                        help="room_glass and workshop, 3 poses, 400 px surfel images, 20 deg "
-                             "OFDM grid, 2 cm ground truth (for the test suite)")
+                        help="room_glass and workshop, their first 0.5 s, 320 px surfel images, "
+                             "20 deg OFDM grid, 2 cm ground truth (for the test suite)")
     args = parser.parse_args(argv)
     scenes = args.scenes.split(",")
     unknown = sorted(set(scenes) - set(MODES))
     if unknown:
         raise ValueError(f"--scenes: unknown scene(s) {', '.join(unknown)}; known: {', '.join(MODES)}")
-    if args.frames < 1:
-        raise ValueError(f"--frames must be >= 1, got {args.frames}")
-    settings = RunSettings(args.frames, args.width, args.spp, np.radians(args.step), 0.01,
+    if args.duration is not None and args.duration <= 0:
+        raise ValueError(f"--duration must be > 0 [s], got {args.duration}")
+    settings = RunSettings(args.duration, args.width, args.spp, np.radians(args.step), 0.01,
                            args.preset, args.seed)
     if args.quick:
         scenes = ["room_glass", "workshop"]
-        settings = replace(settings, frames=3, width=400, step=np.radians(20.0), spacing=0.02)
+        settings = replace(settings, duration=0.5, width=320, step=np.radians(20.0), spacing=0.02)
     results, infos = {}, {}
     for name in scenes:
         results[name], infos[name] = run_scene(name, settings)
-    write_outputs(args.out, results, infos, settings.frames)
+    write_outputs(args.out, results, infos)
     return 0
 
 
@@ -229,12 +278,12 @@ def _x100(x) -> str:
     return f"{100 * x:.1f}" if np.isfinite(x) else "-"
 
 
-def write_outputs(out: Path, results: dict, infos: dict, frames: int) -> None:
+def write_outputs(out: Path, results: dict, infos: dict) -> None:
     out.mkdir(parents=True, exist_ok=True)
     rows, material_rows = [], []
     for scene, recs in results.items():
         for key, rec in recs.items():
-            rows.append(summary_row(scene, infos[scene]["mode"], key, rec, frames))
+            rows.append(summary_row(scene, infos[scene], key, rec))
             material_rows += [{"scene": scene, "sensor": key, "material": m, "points": s.points,
                                "samples": s.samples, "accuracy": s.accuracy,
                                "completeness": s.completeness, "fscore": s.fscore,
@@ -245,12 +294,15 @@ def write_outputs(out: Path, results: dict, infos: dict, frames: int) -> None:
                       scalars={"distance_m": rec.evaluation.distance})
             save_error_figure(out / scene / f"{key}_errors.png", rec.points,
                               rec.evaluation.distance, DEFAULT_THRESHOLD,
-                              title=f"{scene}: {label(key, infos[scene]['mode'])}, {frames} poses")
-    md = ["| scene | sensor | points | accuracy % (< 2 cm) | median cm | p90 cm | completeness % | "
-          "F-score % | consistency cm | glass points | glass accuracy % | glass completeness % | "
-          "time s |", "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
-    md += [f"| {r['scene']} | {label(r['sensor'], r['mode'])} | "
-           f"{r['points']} | {_x100(r['accuracy'])} | {_x100(r['median_distance_m'])} | "
+                              title=f"{scene}: {label(key, infos[scene]['mode'])}, "
+                                    f"{infos[scene]['driven']:.1f} s driven")
+    md = ["| scene | sensor | driven s | frames | points | accuracy % (< 2 cm) | median cm | "
+          "p90 cm | completeness % | F-score % | consistency cm | glass points | "
+          "glass accuracy % | glass completeness % | time s |",
+          "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
+    md += [f"| {r['scene']} | {label(r['sensor'], r['mode'])} | {r['driven_s']:.1f} | "
+           f"{r['frames']} | {r['points']} | {_x100(r['accuracy'])} | "
+           f"{_x100(r['median_distance_m'])} | "
            f"{_x100(r['p90_distance_m'])} | {_x100(r['completeness'])} | {_x100(r['fscore'])} | "
            f"{_x100(r['consistency_m'])} | {r['glass_points']} | {_x100(r['glass_accuracy'])} | "
            f"{_x100(r['glass_completeness'])} | {r['seconds']:.0f} |" for r in rows]
@@ -261,13 +313,13 @@ def write_outputs(out: Path, results: dict, infos: dict, frames: int) -> None:
            f"{r['samples']} | {_x100(r['accuracy'])} | {_x100(r['completeness'])} | "
            f"{_x100(r['fscore'])} | {_x100(r['median_distance_m'])} |" for r in material_rows]
     write_table(out / "per_material.csv", material_rows, pm)
-    save_comparison_figure(out / "comparison.png", results, infos, frames)
+    save_comparison_figure(out / "comparison.png", results, infos)
     print("\n".join(md))
     print(f"Wrote {out}/comparison.csv, .md, per_material.csv, .md, comparison.png and a PLY and "
           f"error figure per reconstruction in {out}/<scene>/")
 
 
-def save_comparison_figure(path: Path, results: dict, infos: dict, frames: int,
+def save_comparison_figure(path: Path, results: dict, infos: dict,
                            max_points: int = 80_000) -> None:
     """Scenes x sensors grid of top views, points coloured by their distance to the ground truth
     (clipped at ``ERROR_CLIP``), floor and ceiling left out (they would hide the rest); grey: the
@@ -299,8 +351,9 @@ def save_comparison_figure(path: Path, results: dict, infos: dict, frames: int,
             ax.set_title(f"{scene}: {label(key, info['mode'])}\n{_x100(score.accuracy)} % within "
                          f"2 cm, completeness {_x100(score.completeness)} %", fontsize=9)
             ax.tick_params(labelsize=7)
-    fig.suptitle(f"Top views [m], {frames} robot poses per scene (black); floor and ceiling "
-                 "removed; grey: ground-truth walls at 1 m", fontsize=10)
+    fig.suptitle("Top views [m], each scene's trajectory driven at the sensors' rates (black: the "
+                 "sensor head once a second); floor and ceiling removed; grey: ground-truth "
+                 "walls at 1 m", fontsize=10)
     fig.tight_layout(rect=(0, 0.07, 1, 0.98))
     bar = fig.add_axes((0.25, 0.045, 0.5, 0.01))
     fig.colorbar(im, cax=bar, orientation="horizontal",

@@ -5,7 +5,8 @@ file) as scene.xml, ground_truth.json and its PNGs (formats: ``mitsonar.scene.bu
 Deterministic: regenerating gives identical bytes (a test checks the shipped files against a
 fresh generation). Needs mitsonar installed (``make install``); ``--preview DIR`` also renders
 PNG previews with Mitsuba. ``--varied N --out DIR`` writes the varied rooms ``varied_0`` ...
-``varied_<N-1>`` (``mitsonar.scene.varied``) instead of the shipped scenes.
+``varied_<N-1>`` (``mitsonar.scene.varied``) instead of the shipped scenes. ``--lighting`` picks
+the look (``mitsonar.scene.building.lights.LIGHTINGS``: ``key``, the default, or ``ceiling``).
 """
 
 from __future__ import annotations
@@ -13,8 +14,10 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from dataclasses import replace
 from pathlib import Path
 
+from mitsonar.scene.building.lights import LIGHTINGS
 from mitsonar.scene.building.preview import render_preview
 from mitsonar.scene.shipped import SCENES
 from mitsonar.scene.varied.room import varied_room, write_varied_rooms
@@ -23,14 +26,15 @@ from mitsonar.scene.varied.room import varied_room, write_varied_rooms
 WRITTEN_BY = "scenes/generate.py"
 
 
-def generate(out_dir=None, names=None) -> list[Path]:
-    """Write the scenes ``names`` (default: all) into ``out_dir`` (default: beside this file)."""
+def generate(out_dir=None, names=None, lighting: str = LIGHTINGS[0]) -> list[Path]:
+    """Write the scenes ``names`` (default: all) into ``out_dir`` (default: beside this file)
+    in the look ``lighting``."""
     out_dir = Path(out_dir) if out_dir is not None else Path(__file__).resolve().parent
     names = list(SCENES) if names is None else list(names)
     unknown = [n for n in names if n not in SCENES]
     if unknown:
         raise ValueError(f"unknown scene(s) {unknown}; known: {', '.join(SCENES)}")
-    return [SCENES[n]().write(out_dir, WRITTEN_BY) for n in names]
+    return [replace(SCENES[n](), lighting=lighting).write(out_dir, WRITTEN_BY) for n in names]
 
 
 def main(argv=None) -> int:
@@ -45,12 +49,16 @@ def main(argv=None) -> int:
     p.add_argument("--varied", type=int, metavar="N",
                    help="write the varied rooms varied_0 ... varied_<N-1> (seeds 0 ... N-1) "
                         "instead of the shipped scenes; needs --out")
+    p.add_argument("--lighting", choices=LIGHTINGS, default=LIGHTINGS[0],
+                   help="the look: 'key' (key light, fill and ambient, direct light only, as the "
+                        "paper's Gazebo worlds) or 'ceiling' (ceiling panels, sun through the "
+                        "windows, interreflection) (default: key)")
     args = p.parse_args(argv)
     if args.varied is not None and (args.out is None or args.only or args.varied < 1):
         p.error("--varied N needs N >= 1 and --out DIR, and no --only")
     try:
-        paths = generate(args.out, args.only) if args.varied is None else \
-            write_varied_rooms(args.out, range(args.varied))
+        paths = generate(args.out, args.only, args.lighting) if args.varied is None else \
+            write_varied_rooms(args.out, range(args.varied), args.lighting)
     except ValueError as err:
         print(f"generate.py: error: {err}", file=sys.stderr)
         return 2
@@ -61,7 +69,7 @@ def main(argv=None) -> int:
         if args.preview:
             name = path.parent.name
             spec = SCENES[name]() if args.varied is None else \
-                varied_room(int(name.removeprefix("varied_")))
+                varied_room(int(name.removeprefix("varied_")), args.lighting)
             for view in ("camera", "overview"):
                 png = args.preview / f"{spec.name}_{view}.png"
                 render_preview(path, png, view, overview=spec.overview)

@@ -52,7 +52,7 @@ QUICK: list[tuple[str, dict | str]] = [
     ("mitsonar map repeated scenes/office/scene.xml --broadband --out out/office_map",
      {"--frames": "1", "--step": "20"}),
     ("mitsonar map surfel scenes/structure/scene.xml --preset paper --out out/structure_surfels",
-     {"--frames": "1", "--width": "160", "--spp": "1"}),
+     {"--duration": "0.3", "--width": "160", "--spp": "1"}),
     ("mitsonar evaluate out/demo/points.ply scenes/room_glass/scene.xml", {"--spacing": "0.1"}),
     ("mitsonar dataset render scenes/office/scene.xml --out out/office_ds --period 1 --step 10 "
      "--width 400 --spp 16 --workers 2",
@@ -60,7 +60,7 @@ QUICK: list[tuple[str, dict | str]] = [
     ("mitsonar dataset info out/office_ds", {}),
     ("mitsonar dataset export out/office_ds --out out/office_ds.mcap", {}),
     ("mitsonar map surfel room_glass --out out/room_surfels --record out/room_surfels.mcap",
-     {"--frames": "1", "--width": "120", "--spp": "1"}),
+     {"--duration": "0.3", "--width": "120", "--spp": "1"}),
     ("mitsonar scenes", {}),
     ("mitsonar scan room_glass --step 20 --out out/scan", {"--fov": "20x10"}),
     ("mitsonar array design --out out/layout.json", {"--generations": "2", "--population": "8"}),
@@ -68,6 +68,10 @@ QUICK: list[tuple[str, dict | str]] = [
     (".venv/bin/python scenes/generate.py", {"--out": "out/scenes", "--only": "room_glass"}),
     (".venv/bin/python scenes/generate.py --only office --out out/scenes", {}),
     (".venv/bin/python scenes/generate.py --varied 10 --out out/varied", {"--varied": "1"}),
+    (".venv/bin/python scenes/generate.py --lighting ceiling --out out/ceiling",
+     {"--only": "room_glass"}),
+    (".venv/bin/python scenes/generate.py --varied 10 --lighting ceiling --out out/varied_ceiling",
+     {"--varied": "1"}),
     (".venv/bin/python benchmarks/run.py", {"--quick": None}),
     (".venv/bin/python benchmarks/run.py --quick", {}),
     *[(f".venv/bin/python experiments/{name}.py {quick}--out out/{name}", BY_TEST_EXPERIMENTS)

@@ -10,8 +10,10 @@ from mitsonar.cli.arguments import (add_output_argument, add_preset_argument,
                                     add_record_argument, add_scene_argument,
                                     add_trajectory_argument, command_group, trajectory_from_args)
 from mitsonar.recon.repeated import REGISTRATIONS, RepeatedMapSpec, map_repeated
-from mitsonar.recon.surfels import SurfelSettings, map_surfels, save_surfel_map, summary
+from mitsonar.recon.surfels import (SurfelSettings, map_surfels, map_surfels_along,
+                                    save_surfel_map, summary)
 from mitsonar.recon.voxelmap import VoxelMapSettings, save_voxel_figure, save_voxel_ply
+from mitsonar.sensors.camera import CameraModel
 from mitsonar.sensors.sonar import Sonar, SonarConfig
 from mitsonar.sensors.trajectory import sensor_poses
 
@@ -20,18 +22,18 @@ def add_cli(subparsers) -> None:
     """``mitsonar map repeated`` and ``mitsonar map surfel``."""
     sub = command_group(subparsers, "map", help="reconstruction maps")
     r = sub.add_parser("repeated", help="OFDM repeated scanning into a coloured voxel map",
-                       description="Fire OFDM frames along the scene's default trajectory (or the "
-                                   "waypoints given), colour the points from the camera and "
-                                   "voxelise them.")
+                       description="Drive the scene's default trajectory (or the waypoints "
+                                   "given) firing OFDM frames back to back, colour the points "
+                                   "from the camera and voxelise them.")
     add_scene_argument(r)
     add_output_argument(r)
     add_trajectory_argument(r)
-    r.add_argument("--frames", type=int, default=5,
-                   help="OFDM frames fired along the trajectory (default 5)")
+    _add_drive_arguments(r)
+    r.add_argument("--frames", type=int, default=None,
+                   help="fire only this many frames (default: every frame that starts while "
+                        "the robot drives, back to back: 4.8 frames/s)")
     r.add_argument("--step", type=float, default=5.0, help="beam grid step [deg] (default 5)")
     r.add_argument("--voxel", type=float, default=0.05, help="voxel size [m] (default 0.05)")
-    r.add_argument("--speed", type=float, default=None,
-                   help="robot speed along the trajectory [m/s] (default: the trajectory's)")
     add_preset_argument(r)
     r.add_argument("--broadband", action="store_true",
                    help="broadband transducers (20 kHz at -6 dB) instead of the 2 kHz TCT40 class")
@@ -45,6 +47,35 @@ def add_cli(subparsers) -> None:
     _add_surfel(sub)
 
 
+def _add_drive_arguments(parser) -> None:
+    """``--duration`` and ``--speed``: how much of the trajectory is driven, how fast."""
+    parser.add_argument("--duration", type=float, default=None,
+                        help="drive only the first DURATION seconds of the trajectory (default: "
+                             "all of it)")
+    parser.add_argument("--speed", type=float, default=None,
+                        help="robot speed along the trajectory [m/s] (default: the "
+                             "trajectory's, 0.2 m/s in the shipped scenes)")
+
+
+def _drive(args):
+    """The trajectory (at ``--speed``) and the time driven [s] (``--duration``), announced."""
+    from dataclasses import replace
+
+    trajectory = trajectory_from_args(args)
+    if args.frames is not None and args.frames < 1:
+        raise ValueError(f"--frames must be >= 1, got {args.frames}")
+    if args.speed is not None:
+        trajectory = replace(trajectory, speed=args.speed)
+    if args.duration is not None and not 0 < args.duration <= trajectory.duration:
+        raise ValueError(f"--duration must lie in (0, {trajectory.duration:.1f}] s, the "
+                         f"trajectory's length, got {args.duration:g}")
+    driven = trajectory.driven(args.duration)
+    print(f"Driving {driven:.1f} s of the {trajectory.duration:.1f} s trajectory at "
+          f"{trajectory.speed:g} m/s, turning at {np.degrees(trajectory.yaw_rate):g} deg/s.",
+          file=sys.stderr)
+    return trajectory, driven
+
+
 def _run_repeated(args) -> int:
     from dataclasses import replace
 
@@ -55,20 +86,22 @@ def _run_repeated(args) -> int:
     config = SonarConfig.preset(args.preset)
     if args.broadband:
         config = replace(config, transducer=Transducer(bandwidth_6db=20e3))
-    trajectory = trajectory_from_args(args)
-    if args.speed is not None:
-        trajectory = replace(trajectory, speed=args.speed)
-    spec = RepeatedMapSpec(frames=args.frames, scan_step=np.radians(args.step),
+    trajectory, driven = _drive(args)
+    spec = RepeatedMapSpec(frames=args.frames, duration=driven, scan_step=np.radians(args.step),
                            voxels=VoxelMapSettings(voxel_size=args.voxel),
                            registration=args.registration, seed=args.seed)
     sonar = Sonar(args.scene, config)
-    with tqdm(total=spec.frames, desc="frames", unit="frame", file=sys.stderr) as bar:
-        voxels, positions, frames = map_repeated(sonar, trajectory, spec, lambda _: bar.update())
+    with tqdm(desc="OFDM frames", unit="frame", file=sys.stderr) as bar:
+        def step(_, total):
+            bar.total = total
+            bar.update()
+
+        voxels, positions, frames = map_repeated(sonar, trajectory, spec, step)
     save_voxel_ply(args.out / "voxel_map.ply", voxels)
     save_voxel_figure(args.out / "voxel_map.png", voxels, positions,
-                      title=f"{args.scene.parent.name}: {spec.frames} OFDM frames")
+                      title=f"{args.scene.parent.name}: {len(frames)} OFDM frames")
     detected = sum(int(s.frame.detected.sum()) for s in frames)
-    print(f"{detected} points from {spec.frames} frames -> {len(voxels)} voxels; wrote "
+    print(f"{detected} points from {len(frames)} frames -> {len(voxels)} voxels; wrote "
           f"{args.out}/voxel_map.ply and voxel_map.png (top, side and 3-D views).")
     if args.record is not None:
         from mitsonar.data.map_mcap import record_repeated
@@ -83,14 +116,18 @@ def _add_surfel(map_subparsers) -> None:
     """``mitsonar map surfel``."""
     s = map_subparsers.add_parser(
         "surfel", help="surfel scanning into a plane mesh (paper III-D)",
-        description="Along a trajectory: camera lines -> triangle surfels -> "
-                    "4 pings each -> verified surfels -> plane groups -> planes grown between "
-                    "the image lines; scored against the scene's ground truth.")
+        description="Along a trajectory, driven at the sensors' own rates: camera lines -> "
+                    "triangle surfels -> 4 pings each -> verified surfels -> plane groups -> "
+                    "planes grown between the image lines; scored against the scene's ground "
+                    "truth.")
     add_scene_argument(s)
     add_output_argument(s)
     add_trajectory_argument(s)
-    s.add_argument("--frames", type=int, default=5,
-                   help="camera poses spread evenly over the trajectory (default 5)")
+    _add_drive_arguments(s)
+    s.add_argument("--frames", type=int, default=None,
+                   help="instead of driving, stop at this many poses spread evenly over the "
+                        "trajectory and scan from each (default: drive, taking a 25 Hz camera "
+                        "frame whenever the sonar is free and pinging every 30 ms)")
     s.add_argument("--width", type=int, default=400,
                    help="camera image width [pixels] (default 400)")
     s.add_argument("--spp", type=int, default=8, help="camera samples per pixel (default 8)")
@@ -110,30 +147,40 @@ def _run_surfel(args) -> int:
     from mitsonar.scene.mesh import scene_mesh
     from mitsonar.sensors.sonar import SonarConfig
 
-    if args.frames < 1:
-        raise ValueError(f"--frames must be >= 1, got {args.frames}")
-    trajectory = trajectory_from_args(args)
-    times = np.linspace(0.0, trajectory.duration, args.frames)
-    poses = sensor_poses(trajectory.poses_at(times))
+    trajectory, driven = _drive(args)
     settings = SurfelSettings(image_width=args.width, spp=args.spp, seed=args.seed)
     sonar = Sonar(args.scene, SonarConfig.preset(args.preset))
+    # the poses a recording stamps the pings with: the still poses, or every camera frame
+    times = np.linspace(0.0, driven, args.frames) if args.frames is not None else \
+        trajectory.times_at_rate(CameraModel().frame_rate, driven)
     recording = None
     if args.record is not None:
         from mitsonar.data.map_mcap import SurfelRunRecording
 
-        recording = SurfelRunRecording(sonar, trajectory, times, poses, seed=args.seed)
+        recording = SurfelRunRecording(sonar, trajectory, times,
+                                       sensor_poses(trajectory.poses_at(times)), seed=args.seed)
+        sonar = recording.sonar
     start = time.perf_counter()
-    passes = 1 if settings.check_spacing == 0 else 2
-    with tqdm(total=passes * len(poses), desc="poses (scan, check)", unit="pose",
-              file=sys.stderr) as bar:
-        surfel_map = map_surfels(sonar if recording is None else recording.sonar, poses,
-                                 settings=settings, progress=lambda _: bar.update())
+    if args.frames is None:
+        with tqdm(total=round(driven, 2), desc="trajectory driven", unit="s",
+                  bar_format="{l_bar}{bar}| {n:.1f}/{total:.1f} s [{elapsed}<{remaining}]",
+                  file=sys.stderr) as bar:
+            surfel_map = map_surfels_along(sonar, trajectory, settings, driven,
+                                           lambda t: bar.update(round(t, 2) - bar.n))
+        times = surfel_map.times
+    else:
+        passes = 1 if settings.check_spacing == 0 else 2
+        with tqdm(total=passes * len(times), desc="poses (scan, check)", unit="pose",
+                  file=sys.stderr) as bar:
+            surfel_map = map_surfels(sonar, sensor_poses(trajectory.poses_at(times)),
+                                     settings=settings, progress=lambda _: bar.update())
     points, plane = save_surfel_map(args.out, surfel_map,
-                                    title=f"{args.scene.parent.name}: {len(poses)} poses")
+                                    title=f"{args.scene.parent.name}: {len(times)} poses")
     info = summary(surfel_map)
     score = evaluate(points, scene_mesh(sonar.scene)).overall if len(points) else None
-    print(f"{info['registered_surfels']} of {info['candidate_surfels']} surfels registered "
-          f"({info['pings']} pings), {len(surfel_map.groups)} planes, "
+    print(f"{len(times)} camera frames, {info['registered_surfels']} of "
+          f"{info['candidate_surfels']} surfels registered ({info['pings']} pings), "
+          f"{len(surfel_map.groups)} planes, "
           f"{info['shadow_lines_removed']} shadow lines removed, "
           f"{time.perf_counter() - start:.0f} s; wrote {args.out}/surfel_map.ply, "
           f"surfel_points.ply, surfels.json, surfel_map.png")

@@ -113,7 +113,9 @@ class SurfelRunRecording:
 
         scans = surfel_map.scans
         self.recorder.static_frames(0.0, Pose.sensor_mount(), scans[0].camera.camera_from_sensor())
-        for t, scan in zip(self.times, scans):
+        # a driven run's frames were taken when the sonar was free, not at every pose listed
+        times = surfel_map.times if len(surfel_map.times) else self.times
+        for t, scan in zip(times, scans):
             self.recorder.camera(t, scan.camera.intrinsics(), srgb8(scan.gray), "mono8")
         end = float(self.times.max())
         RunTimeline(self.trajectory, end, self.seed).record(self.recorder, self.times)

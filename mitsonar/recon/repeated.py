@@ -33,7 +33,11 @@ class RepeatedMapSpec:
     """What to map.
 
     Attributes:
-        frames: number of OFDM frames, fired from the trajectory's start.
+        frames: number of OFDM frames, fired from the trajectory's start; None: every frame
+            that starts while the robot drives the first ``duration`` of the trajectory (the
+            sensor's own rate: back to back, 4.8 frames/s at the paper's settings).
+        duration: how long the robot drives [s] when ``frames`` is None; None: the whole
+            trajectory.
         interval: time between the starts of consecutive frames [s]; None: back to back (the
             frame duration, 208.5 ms at the paper's settings). A longer interval keeps every
             n-th frame of a continuous run (frames spread along the trajectory; the ones in
@@ -46,7 +50,8 @@ class RepeatedMapSpec:
         seed: seeds every frame's noise and diffuse phases.
     """
 
-    frames: int = 5
+    frames: int | None = None
+    duration: float | None = None
     interval: float | None = None
     scan_step: float = np.radians(5.0)
     image_width: int = 320
@@ -56,8 +61,10 @@ class RepeatedMapSpec:
     seed: int = 0
 
     def __post_init__(self):
-        if int(self.frames) != self.frames or self.frames < 1:
+        if self.frames is not None and (int(self.frames) != self.frames or self.frames < 1):
             raise ValueError(f"RepeatedMapSpec.frames must be a positive integer, got {self.frames}")
+        if self.duration is not None:
+            check_positive("RepeatedMapSpec.duration [s]", self.duration)
         check_positive("RepeatedMapSpec.scan_step [rad]", self.scan_step)
         if self.interval is not None:
             check_positive("RepeatedMapSpec.interval [s]", self.interval)
@@ -83,24 +90,28 @@ class ScannedFrame:
 
 def scan_repeated(sonar: Sonar, trajectory: Trajectory, spec: RepeatedMapSpec = RepeatedMapSpec(),
                   progress=None) -> tuple[list[ScannedFrame], CameraModel]:
-    """Fire ``spec.frames`` OFDM frames along the trajectory, ``spec.interval`` apart (default:
-    back to back), with an image each."""
+    """Fire OFDM frames along the trajectory, ``spec.interval`` apart (default: back to back),
+    with an image each: ``spec.frames`` of them, or every frame that starts within the first
+    ``spec.duration`` [s] (default: the whole trajectory). ``progress`` is called with (frame
+    index, number of frames) after each."""
     ofdm = OfdmSonar(sonar)
     schedule = ofdm.schedule(sonar.fov_grid(spec.scan_step))
     interval = schedule.frame_duration if spec.interval is None else spec.interval
     if interval < schedule.frame_duration:
         raise ValueError(f"RepeatedMapSpec.interval [s] must be at least the frame duration "
                          f"({schedule.frame_duration:.4f} s), got {interval}")
+    count = spec.frames if spec.frames is not None else \
+        max(int(np.floor(trajectory.driven(spec.duration) / interval + 1e-9)), 1)
     camera = CameraRenderer(sonar.scene, CameraModel(spp=spec.spp).at_resolution(spec.image_width))
     pose_at = pose_along(trajectory)
     scanned = []
-    for k in range(spec.frames):  # frames follow each other in time
+    for k in range(count):  # frames follow each other in time
         start = k * interval
         frame = ofdm.frame(schedule, pose_at, start_time=start, seed=spec.seed + k)
         pose = pose_at(start)
         scanned.append(ScannedFrame(frame, camera.render(pose, seed=spec.seed + k).rgb, pose))
         if progress is not None:
-            progress(k)
+            progress(k, count)
     return scanned, camera.model
 
 

@@ -38,9 +38,10 @@ def mitsuba():
         except (ImportError, AttributeError) as err:
             raise ValueError(f"Mitsuba variant {variant()!r} is not available here: {err}") from None
     if not _registered:
-        from mitsonar.plugins import acoustic
+        from mitsonar.plugins import acoustic, lights
 
         acoustic.register()
+        lights.register()
         _registered = True
     return mi
 

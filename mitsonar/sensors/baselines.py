@@ -69,14 +69,15 @@ class _OpaqueCaster:
 
     def cast(self, origin, directions):
         """Distance t (N,) [m] (inf: no opaque hit), geometric normal (N, 3) and shape index
-        (N,) (-1: none) of rays from ``origin`` (3,) along unit ``directions`` (N, 3), world frame.
+        (N,) (-1: none) of rays from ``origin`` ((3,), or (N, 3): one per ray) along unit
+        ``directions`` (N, 3), world frame.
         """
         mi = self.mi
         import drjit as dr
 
-        origin = np.asarray(origin, dtype=float)
         d = np.asarray(directions, dtype=float)
-        o = np.broadcast_to(origin, d.shape).copy()
+        origin = np.broadcast_to(np.asarray(origin, dtype=float), d.shape)
+        o = origin.copy()
         t = np.full(len(d), np.inf)
         normal = np.zeros_like(d)
         shape = np.full(len(d), -1)
@@ -93,7 +94,7 @@ class _OpaqueCaster:
             through = (index >= 0) & self._transparent[index]
             hit = (index >= 0) & ~through
             rows = active[hit]
-            t[rows] = np.einsum("ij,ij->i", p[hit] - origin, d[rows])
+            t[rows] = np.einsum("ij,ij->i", p[hit] - origin[rows], d[rows])
             normal[rows] = np.asarray(si.n, dtype=float).T[hit]
             shape[rows] = index[hit]
             active = active[through]
@@ -132,6 +133,8 @@ class LidarModel:
         channels: number of lasers, spread evenly over the elevation range (16: 2 deg apart).
         elevation_min, elevation_max: lowest and highest beam elevation [rad] (-15, +15 deg).
         azimuth_step: horizontal resolution [rad] (0.2 deg: the VLP-16 at 10 Hz).
+        rate: revolutions per second [Hz] (10: the VLP-16's default 600 rpm); the columns of a
+            revolution are fired one after another, evenly over its 1 / rate.
         min_range: returns closer than this are dropped [m] (0.4 m: the ROS velodyne driver's
             VLP-16 default, ``velodyne_pointcloud/launch/VLP16_points.launch``).
         max_range: datasheet range [m].
@@ -145,6 +148,7 @@ class LidarModel:
     elevation_min: float = np.radians(-15.0)
     elevation_max: float = np.radians(15.0)
     azimuth_step: float = np.radians(0.2)
+    rate: float = 10.0
     min_range: float = 0.4
     max_range: float = 100.0
     range_sigma: float = 0.015
@@ -156,6 +160,7 @@ class LidarModel:
         check_range("LidarModel.elevation_max [rad]", self.elevation_max, self.elevation_min,
                     np.pi / 2)
         check_range("LidarModel.azimuth_step [rad]", self.azimuth_step, 1e-6, 2 * np.pi)
+        check_positive("LidarModel.rate [Hz]", self.rate)
         check_range("LidarModel.min_range [m]", self.min_range, 0.0, np.inf)
         check_range("LidarModel.max_range [m]", self.max_range, self.min_range, np.inf)
         check_range("LidarModel.range_sigma [m]", self.range_sigma, 0.0, np.inf)
@@ -198,6 +203,8 @@ class DepthCameraModel:
         width, height: image size [pixels].
         horizontal_fov, vertical_fov: full fields of view [rad].
         min_depth, max_depth: z-depths outside this range [m] give no return.
+        rate: frames per second [Hz] (30: the Kinect v2's depth stream); each frame is taken at
+            one instant.
         noise: (a0 [m], a1 [-], a2 [1/m], a3 [1/m^0.5]): sigma_z = a0 + a1 z + a2 z^2
             + a3 z^1.5 theta^2 / (pi/2 - theta)^2 [m].
         max_noise_angle: theta is clipped to this [rad] in sigma_z, which diverges at 90 deg
@@ -211,6 +218,7 @@ class DepthCameraModel:
     vertical_fov: float = np.radians(60.0)
     min_depth: float = 0.5
     max_depth: float = 4.5
+    rate: float = 30.0
     noise: tuple = (1.5e-3, -0.5e-3, 0.3e-3, 0.1e-3)
     max_noise_angle: float = np.radians(80.0)
     max_crossings: int = 4
@@ -222,6 +230,7 @@ class DepthCameraModel:
         check_range("DepthCameraModel.vertical_fov [rad]", self.vertical_fov, 1e-6, np.pi - 1e-6)
         check_positive("DepthCameraModel.min_depth [m]", self.min_depth)
         check_range("DepthCameraModel.max_depth [m]", self.max_depth, self.min_depth, np.inf)
+        check_positive("DepthCameraModel.rate [Hz]", self.rate)
         check_finite("DepthCameraModel.noise", self.noise)
         if len(self.noise) != 4:
             raise ValueError(f"DepthCameraModel.noise needs 4 coefficients, got {self.noise}")
@@ -262,19 +271,45 @@ class Lidar:
         """Robot-from-LiDAR pose: the LiDAR frame is the robot's (x fwd, y left, z up) at the mount."""
         return Pose(np.eye(3), SENSOR_MOUNT_TRANSLATION)
 
-    def measure(self, robot_pose, seed=0) -> SensorFrame:
-        """One revolution from a robot at ``robot_pose`` (world-from-robot :class:`Pose` or
-        (x, y, yaw)); ``seed`` (int or ``SeedSequence``) drives the range noise."""
+    def _returns(self, origins, world_directions, seed):
+        """Measured ranges (N,) [m] (NaN: no return) and shape index (N,) of the beams from
+        ``origins`` (N, 3) or (3,) along ``world_directions`` (N, 3)."""
         m = self.model
-        pose = _robot_pose(robot_pose) @ self.mount()
-        d = self._dirs.reshape(-1, 3)
-        t, _, shape = self._caster.cast(pose.translation, pose.transform_vectors(d))
+        t, _, shape = self._caster.cast(origins, world_directions)
         rng = np.random.default_rng(seed)
         measured = t + m.range_sigma * rng.standard_normal(len(t))
         ok = np.isfinite(t) & (measured >= m.min_range) & (measured <= m.max_range)
-        image = np.where(ok, measured, np.nan).reshape(self._dirs.shape[:2])
-        index = np.flatnonzero(ok)
-        return SensorFrame(image, index, d[index] * measured[index, None], shape[index], pose)
+        return np.where(ok, measured, np.nan), shape
+
+    def measure(self, robot_pose, seed=0) -> SensorFrame:
+        """One revolution from a robot standing at ``robot_pose`` (world-from-robot
+        :class:`Pose` or (x, y, yaw)); ``seed`` (int or ``SeedSequence``) drives the range
+        noise."""
+        pose = _robot_pose(robot_pose) @ self.mount()
+        d = self._dirs.reshape(-1, 3)
+        measured, shape = self._returns(pose.translation, pose.transform_vectors(d), seed)
+        index = np.flatnonzero(np.isfinite(measured))
+        return SensorFrame(measured.reshape(self._dirs.shape[:2]), index,
+                           d[index] * measured[index, None], shape[index], pose)
+
+    def measure_moving(self, trajectory, start: float, seed=0) -> np.ndarray:
+        """World points (N, 3) [m] of the revolution that starts at ``start`` [s] on a robot
+        driving ``trajectory`` (a :class:`~mitsonar.sensors.trajectory.Trajectory`): each column
+        fired at its own time, from the robot's pose then, and placed with that pose."""
+        m = self.model
+        columns = self._dirs.shape[1]
+        x, y, yaw = trajectory.poses_at(start + np.arange(columns) / (columns * m.rate)).T
+        c, s = np.cos(yaw), np.sin(yaw)
+        mount = self.mount().translation
+        origin = np.stack([x + c * mount[0] - s * mount[1], y + s * mount[0] + c * mount[1],
+                           np.full(columns, mount[2])], axis=-1)
+        d = self._dirs  # (channels, columns, 3), turned by each column's yaw
+        world = np.stack([c * d[..., 0] - s * d[..., 1], s * d[..., 0] + c * d[..., 1],
+                          d[..., 2]], axis=-1).reshape(-1, 3)
+        origins = np.broadcast_to(origin, d.shape).reshape(-1, 3)
+        measured, _ = self._returns(origins, world, seed)
+        ok = np.isfinite(measured)
+        return origins[ok] + world[ok] * measured[ok, None]
 
 
 class DepthCamera:
@@ -308,6 +343,23 @@ class DepthCamera:
         index = np.flatnonzero(ok)
         points = self._rays[index] * (measured[index] / self._rays[index, 2])[:, None]
         return SensorFrame(image, index, points, shape[index], pose)
+
+    def measure_moving(self, trajectory, start: float, seed=0) -> np.ndarray:
+        """World points (N, 3) [m] of the frame taken at ``start`` [s] on a robot driving
+        ``trajectory``, placed with the pose it was taken from (one instant)."""
+        return self.measure(trajectory.poses_at([start])[0], seed=seed).points_world
+
+
+def sweep(sensor, trajectory, duration: float | None = None, seed: int = 0):
+    """A :class:`Lidar` or :class:`DepthCamera` driven along ``trajectory`` at its own rate
+    (``sensor.model.rate``) for its first ``duration`` [s] (None: all of it): yields, frame by
+    frame, (start time [s], world points (N, 3) [m]) with every beam placed by the pose it was
+    fired from (no odometry drift). Frame k's noise uses ``SeedSequence([seed, k])``; frames
+    are yielded one at a time, so a consumer can thin the points as they come (a Kinect v2
+    along a two-minute trajectory returns some 10^9)."""
+    for k, start in enumerate(trajectory.times_at_rate(sensor.model.rate, duration)):
+        yield float(start), sensor.measure_moving(trajectory, float(start),
+                                                  seed=np.random.SeedSequence([seed, k]))
 
 
 def map_trajectory(sensor, robot_poses, odometry_poses=None, seed: int = 0):

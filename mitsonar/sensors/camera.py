@@ -6,9 +6,13 @@ vertical 48.5 deg). The optical centre sits 7.5 cm above the array origin; its a
 sensor's (x right, y down, z forward), so the camera-from-sensor extrinsic is a pure translation.
 Pixel (i, j) covers u in [i, i+1), v in [j, j+1); the principal point is the image centre.
 
-Rendering uses the same loaded ``mi.Scene`` as the sonar. Images are rendered one sample per
-pixel per pass (each pass writes every pixel once) and the passes are averaged in a fixed order,
-so a seed gives bit-identical images however many threads render them.
+Rendering uses the same loaded ``mi.Scene`` as the sonar, path traced (``CameraModel.max_depth``)
+or, where the scene's own integrator is Mitsuba's ``direct`` (the ``key`` look of
+:mod:`mitsonar.scene.building.lights`, like the paper's rasterised Gazebo worlds), with direct
+light only (Mitsuba's ``volpath`` to depth 2: passing through glass is no bounce there, so what
+stands behind a glass partition is lit as what stands in front of it). Images are rendered one
+sample per pixel per pass (each pass writes every pixel once) and the passes are averaged in a
+fixed order, so a seed gives bit-identical images however many threads render them.
 
 The Monte Carlo noise of a path tracer at a few samples per pixel is a rendering artefact, not
 camera noise: at 32 spp a lit drywall room shows 15-20 grey levels of it (of 255), more than the
@@ -26,6 +30,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from mitsonar.frames import Pose
+from mitsonar.scene.building.lights import direct_light_integrator
 from mitsonar.scene.rays import rays
 from mitsonar.scene.loading import AcousticScene, mitsuba
 from mitsonar.validation import check_positive
@@ -44,9 +49,11 @@ class CameraModel:
         focal_length: lens focal length [m].
         offset: (3,) optical centre in the sensor frame [m].
         spp: samples per pixel of the path tracer.
-        max_depth: path length limit of the path tracer.
+        max_depth: path length limit of the path tracer (not used in scenes that ask for
+            Mitsuba's ``direct`` integrator: direct light only).
         denoise: denoise the rendered image with OIDN guided by albedo and normals (module
             docstring); False: the raw Monte Carlo estimate.
+        frame_rate: frames per second [Hz] while the robot drives (25, DESIGN.md's camera).
     """
 
     width: int = 1600
@@ -57,6 +64,7 @@ class CameraModel:
     spp: int = 16
     max_depth: int = 6
     denoise: bool = True
+    frame_rate: float = 25.0
 
     def __post_init__(self):
         for name in ("width", "height", "spp", "max_depth"):
@@ -65,6 +73,7 @@ class CameraModel:
                 raise ValueError(f"CameraModel.{name} must be a positive integer, got {value}")
         check_positive("CameraModel.pixel_pitch [m]", self.pixel_pitch)
         check_positive("CameraModel.focal_length [m]", self.focal_length)
+        check_positive("CameraModel.frame_rate [Hz]", self.frame_rate)
         object.__setattr__(self, "offset", np.asarray(self.offset, dtype=float))
 
     def at_resolution(self, width: int) -> "CameraModel":
@@ -171,7 +180,8 @@ class CameraRenderer:
         self.mi = mitsuba()
         self.scene = scene
         self.model = model
-        path = {"type": "path", "max_depth": model.max_depth}
+        path = direct_light_integrator(scene.scene) or {"type": "path",
+                                                        "max_depth": model.max_depth}
         # the aov integrator adds albedo (3 channels) and shading normals (3) after the RGB
         self._integrator = self.mi.load_dict(
             {"type": "aov", "aovs": "albedo:albedo,nn:sh_normal", "integrator": path}

@@ -100,6 +100,25 @@ class Trajectory:
         times = np.arange(0.0, self.duration + 1e-9, period)
         return times, self.poses_at(times)
 
+    def driven(self, duration: float | None = None) -> float:
+        """Time driven [s]: ``duration`` (the first part of the trajectory), checked to lie in
+        (0, :attr:`duration`]; None: the whole trajectory."""
+        if duration is None:
+            return self.duration
+        check_positive("driven duration [s]", duration)
+        if duration > self.duration + 1e-9:
+            raise ValueError(f"driven duration [s] must be at most the trajectory's "
+                             f"{self.duration:.1f} s, got {duration}")
+        return float(duration)
+
+    def times_at_rate(self, rate: float, duration: float | None = None) -> np.ndarray:
+        """Start times (n,) [s] of a sensor's frames at ``rate`` [Hz] while the robot drives the
+        first ``duration`` [s] (None: the whole trajectory): k / rate for the n = floor(duration
+        x rate) frames that start within it (at least one, at t = 0)."""
+        check_positive("sensor rate [Hz]", rate)
+        count = max(int(np.floor(self.driven(duration) * rate + 1e-9)), 1)
+        return np.arange(count) / rate
+
 
 @dataclass(frozen=True)
 class OdometryDrift:

@@ -12,7 +12,9 @@ Order and choices:
   side-lobe check in one sparse product per carrier for the strongest candidate of every beam
   and one for the other candidates of the beams whose strongest was rejected (look after look:
   a candidate rejected in one look is not checked in the next), the arrival directions of
-  every detected beam in one more. One beam is the case B = 1.
+  every detected beam in one more. One beam is the case B = 1. Everything after the channels'
+  FFT also runs from channel spectra on the band handed in directly
+  (:meth:`EchoProcessor.process_spectra`: the detection-only path of OFDM frames).
 * Matched filter (6) with the expected echo shape (drive pulse through both transducer
   responses), normalised so that an echo of path gain A gives an envelope peak of |A| [Pa].
   Beamforming and filtering share one FFT per channel and one inverse FFT, and are computed on
@@ -185,10 +187,23 @@ class EchoProcessor:
         shared = isinstance(recordings, Recording)
         start_time = (recordings if shared else recordings[0]).start_time
         samples = recordings.samples if shared else np.stack([r.samples for r in recordings])
+        return self.process_spectra(self.band.band_spectra(samples), start_time,
+                                    samples.shape[-1], directions, direct_envelopes, waveforms,
+                                    transmit_times, max_path_length)
+
+    def process_spectra(self, spectra: np.ndarray, start_time: float, n: int, directions,
+                        direct_envelopes: np.ndarray | None = None, waveforms=None,
+                        transmit_times=0.0,
+                        max_path_length: float | None = None) -> tuple[np.ndarray, Detections]:
+        """:meth:`process_beams` of the channels' spectra on the band, (N_rx, nb) shared by
+        every beam or (B, N_rx, nb) one set per beam, whose recordings start at ``start_time``
+        [s] with ``n`` samples (other arguments as there). The detection-only path of an OFDM
+        frame hands its synthesised spectra and band noise here, without recordings
+        (:meth:`~mitsonar.sensors.ofdm_sonar.OfdmSonar.frame`); both paths share every decision
+        from here on."""
+        shared = spectra.ndim == 2
         u = np.asarray(directions, dtype=float).reshape(-1, 3)
-        n = samples.shape[-1]
         waves = _Waveforms(self, waveforms, len(u))
-        spectra = self.band.band_spectra(samples)
         beamformed = self.beamformer.beamformed(spectra, u)
         # Each part of a code is a tone: its own envelope, and an exact carrier for the looks.
         beams, look = np.nonzero((waves.looks >= 0) & waves.has_parts[:, None])

@@ -43,7 +43,9 @@ from mitsonar.trace.paths import Paths
 #: The gridding kernels add into a copy of the grid per core, merged after (Dr.Jit's Expand
 #: reduction), each tap's (re, im) as one packet of two adjacent integers: measured on one
 #: beam's 4e5-1.9e6 element pairs (20 kHz transducers, 25 x 8 600 samples) 5x faster than two
-#: scatters per tap and 20x faster than atomic adds into one grid.
+#: scatters per tap and 20x faster than atomic adds into one grid. The copies cost a grid's
+#: memory per core (3.4 MB for a broadband OFDM beam's 25 channels); Dr.Jit's CUDA backend, which
+#: has no Expand, adds atomically.
 GRID_REDUCE = "Expand"
 
 
@@ -413,6 +415,28 @@ class EchoSynthesizer:
         """
         spectrum = self.group_spectrum(paths, waveform, n_channels)
         return self.recording(self.band.to_samples(spectrum), noise_rms, seed)
+
+    def band_noise(self, n_channels: int, noise_rms: float, seed) -> np.ndarray:
+        """Seeded receiver noise drawn straight on the band: spectra (n_channels, nb) of the
+        white noise of :meth:`recording` (``noise_rms`` [Pa] per sample at ``reference_rate``,
+        real or baseband alike) as :meth:`Band.band_spectra` gives them for a recording as long
+        as the period: independent circular complex Gaussian bins of E|X|^2 = 4 n_fft
+        noise_rms^2 (a real recording's rfft bins, doubled; baseband: the same density).
+
+        The recording's noise lasts its n_samples, this noise the whole period (n_grid samples):
+        their band-limited samples, and their matched-filter outputs, have the same statistics
+        except within a matched filter's length of the recording's ends, where the recording's
+        are weaker (the filter reaches into its silent guard samples).
+        (The per-channel path needs 2 n_channels x n_samples normals and two transforms per
+        channel; this one 2 n_channels x nb normals and none.)"""
+        shape = (n_channels, len(self.band.frequencies))
+        if noise_rms <= 0:
+            return np.zeros(shape, complex)
+        if seed is None:
+            raise ValueError("noise_rms > 0 needs an explicit seed")
+        noise = np.random.default_rng(seed).normal(
+            0.0, noise_rms * np.sqrt(2 * self.band.n_fft), (2,) + shape)
+        return noise[0] + 1j * noise[1]
 
     def recording(self, channels: np.ndarray, noise_rms: float = 0.0, seed=None) -> Recording:
         """Recording of channels (n_channels, n_samples) [Pa] (real recordings keep the real part

@@ -153,3 +153,13 @@ def test_a_file_the_system_refuses_is_one_line(tmp_path, capsys, monkeypatch):
     refused = tmp_path / "out" / "points.ply"
     err = capsys.readouterr().err.strip()
     assert err == f"mitsonar scan: error: [Errno 13] Permission denied: '{refused}'"
+
+
+@pytest.mark.parametrize("mode", ["repeated", "surfel"])
+@pytest.mark.parametrize("value", ["0", "-1", "80"])
+def test_a_drive_longer_than_the_trajectory_is_refused(tmp_path, capsys, mode, value):
+    """room_glass's trajectory lasts 79.5 s: --duration outside (0, 79.5] names it."""
+    code, err = run(["map", mode, "room_glass", "--duration", value, "--out", tmp_path / "o"],
+                    capsys)
+    assert code == 2
+    assert_one_line_error(err, "--duration", "79.5")

@@ -490,9 +490,9 @@ def test_office_layout():
     for cup in cups:
         e = _extents(cup)
         assert 0.06 <= e[0] and e[2] <= 0.12, (cup["id"], e)
-    # sun and sky through the windows
+    # the key look's lights, the ceiling panels and the sky seen through the windows
     emitters = [str(e).split("[")[0] for e in scene.scene.emitters()]
-    assert {"DirectionalEmitter", "EnvironmentMapEmitter", "AreaLight"} <= set(emitters)
+    assert {"KeyLight", "AmbientLight", "EnvironmentMapEmitter", "AreaLight"} <= set(emitters)
 
 
 # ---- the checks themselves can fail ----------------------------------------------------------

@@ -5,7 +5,8 @@ import pytest
 
 import mitsonar
 from mitsonar.sensors.baselines import (DepthCamera, DepthCameraModel, Lidar, LidarModel,
-                                map_trajectory)
+                                map_trajectory, sweep)
+from mitsonar.sensors.trajectory import Trajectory
 from mitsonar.frames import SENSOR_MOUNT_TRANSLATION
 from mitsonar.evaluation.metrics import evaluate
 from mitsonar.scene.mesh import scene_mesh
@@ -157,6 +158,33 @@ def test_map_trajectory_places_frames_with_the_odometry(scene_file):
         map_trajectory(lidar, truth, odometry[:1])
 
 
+def test_sweep_takes_each_sensors_frames_at_its_rate_and_places_every_beam(scene_file):
+    """Driving 0.5 s of a trajectory that turns on the spot at 30 deg/s, then drives at
+    0.2 m/s: the VLP-16 turns 5 times (10 Hz), the Kinect v2 takes 15 frames (30 Hz): duration
+    x rate.
+    A LiDAR column fired while the robot turns leaves from the pose of its own time and is
+    placed with it: every noise-free point lies on the box room's walls (1e-4 m), and a
+    revolution's points differ from those of the robot standing still at its start."""
+    scene = scene_file("box", *box_room())
+    trajectory = Trajectory(np.array([[0.0, 0.0, 0.0], [0.0, 0.0, np.pi / 2],
+                                      [1.0, 0.0, np.pi / 2]]), speed=0.2, yaw_rate=np.radians(30.0))
+    lidar, camera = Lidar(scene, NOISE_FREE), DepthCamera(scene)
+    frames = {key: list(sweep(sensor, trajectory, duration=0.5, seed=3))
+              for key, sensor in (("lidar", lidar), ("camera", camera))}
+    assert [len(frames["lidar"]), len(frames["camera"])] == [5, 15]
+    np.testing.assert_allclose([t for t, _ in frames["lidar"]], np.arange(5) / 10.0)
+    np.testing.assert_allclose([t for t, _ in frames["camera"]], np.arange(15) / 30.0)
+    mesh = scene_mesh(lidar.scene)
+    for _, points in frames["lidar"][:3]:
+        assert evaluate(points, mesh, spacing=0.1).overall.mean_distance < 1e-4
+    still = lidar.measure(trajectory.poses_at([0.0])[0]).points_world
+    moving = frames["lidar"][0][1]
+    assert len(moving) == len(still) and np.abs(moving - still).max() > 0.05
+    standing = Trajectory(np.array([[0.2, 0.1, 0.3]]))
+    _, parked = next(sweep(lidar, standing, seed=0))
+    np.testing.assert_allclose(parked, lidar.measure((0.2, 0.1, 0.3)).points_world, atol=1e-9)
+
+
 def test_bad_poses_and_models_are_named(scene_file):
     lidar = Lidar(scene_file("box", *box_room()), NOISE_FREE)
     with pytest.raises(ValueError, match="robot pose"):
@@ -165,6 +193,8 @@ def test_bad_poses_and_models_are_named(scene_file):
         map_trajectory(lidar, [[0.0, 0.0, np.inf]])
     with pytest.raises(ValueError, match="range_sigma"):
         LidarModel(range_sigma=-0.01)
+    with pytest.raises(ValueError, match="rate"):
+        LidarModel(rate=0.0)
     with pytest.raises(ValueError, match="elevation_max"):
         LidarModel(elevation_min=0.2, elevation_max=0.1)
     with pytest.raises(ValueError, match="max_depth"):

@@ -142,12 +142,13 @@ planes) and read back by the growth (``_support``); joining them to the plane fi
 """
 
 from mitsonar.recon.surfels.growing import grow_planes, region_labels, shadow_segments
-from mitsonar.recon.surfels.map import SurfelMap, map_surfels
+from mitsonar.recon.surfels.map import SurfelMap, map_surfels, map_surfels_along
 from mitsonar.recon.surfels.outputs import plane_colours, save_surfel_map, summary
 from mitsonar.recon.surfels.planes import PlaneGroups, fit_plane, group_surfels
 from mitsonar.recon.surfels.scanning import CheckPings, PoseScan, tone_map, verify
 from mitsonar.recon.surfels.settings import SurfelSettings
 
 __all__ = ["CheckPings", "fit_plane", "group_surfels", "grow_planes", "map_surfels",
+           "map_surfels_along",
            "plane_colours", "PlaneGroups", "PoseScan", "region_labels", "save_surfel_map",
            "shadow_segments", "summary", "SurfelMap", "SurfelSettings", "tone_map", "verify"]

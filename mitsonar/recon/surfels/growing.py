@@ -17,7 +17,6 @@ from mitsonar.recon.surfels.planes import PlaneGroups, _on_planes, project_onto_
 from mitsonar.recon.surfels.scanning import CheckPings, PoseScan
 from mitsonar.recon.surfels.settings import SurfelSettings
 from mitsonar.sensors.camera import CameraModel
-from mitsonar.sensors.sonar import Sonar
 
 def camera_rays(camera: CameraModel, camera_pose: Pose, pixels) -> np.ndarray:
     """World directions (..., 3) (not normalised, camera z = 1) of pixels (..., 2)."""
@@ -222,13 +221,14 @@ def grow_planes(scan: PoseScan, segments, groups: PlaneGroups, surfel_points, se
                     np.where(found, best, -1), points)
 
 
-def check_pose(sonar: Sonar, true_pose: Pose, scan: PoseScan, mesh: PoseMesh,
-               settings: SurfelSettings = SurfelSettings(), seed: int = 0) -> PoseScan:
+def check_pose(pinger, scan: PoseScan, mesh: PoseMesh, settings: SurfelSettings = SurfelSettings(),
+               seed: int = 0) -> PoseScan:
     """``scan`` with check pings: beams one ``check_spacing`` apart over the planes grown in
     its image (``mesh``), at least ``fill_margin`` from every barrier line (so no footprint
     reaches across a crease), each aimed at its grid pixel's point on the grown plane (so the
-    camera's parallax is removed); fired from ``true_pose``, registered by the scan's odometry
-    pose."""
+    camera's parallax is removed); fired by ``pinger``
+    (:mod:`~mitsonar.recon.surfels.pinging`) from the scan's image pose, registered by the
+    scan's odometry pose."""
     import cv2
 
     f = scan.camera.focal_pixels
@@ -242,16 +242,14 @@ def check_pose(sonar: Sonar, true_pose: Pose, scan: PoseScan, mesh: PoseMesh,
     grown = (mesh.grid_plane[rows, rows] >= 0) & \
         (margin[at[..., 1], at[..., 0]] >= f * np.tan(settings.fill_margin))
     pixels, targets = mesh.grid_pixels[rows, rows][grown], mesh.grid_points[rows, rows][grown]
-    directions = scan.pose.inverse().transform_points(targets)
-    directions /= np.linalg.norm(directions, axis=1, keepdims=True)
-    geometry = sonar.config.geometry
+    local = scan.pose.inverse().transform_points(targets)
+    directions = local / np.linalg.norm(local, axis=1, keepdims=True)
+    geometry = pinger.sonar.config.geometry
     inside = in_fov(directions, geometry.fov_horizontal, geometry.fov_vertical)
-    pixels, directions = pixels[inside], directions[inside]
-    points = np.zeros((0, 3))
-    if len(directions):
-        measured = sonar.scan(true_pose, directions, seed=seed)
-        points = scan.pose.transform_points(measured.points_sensor)
-    return replace(scan, checks=CheckPings(pixels, points), pings=scan.pings + len(directions))
+    fired = pinger.pings
+    points = scan.pose.transform_points(pinger.fire(directions[inside], seed, local[inside]))
+    return replace(scan, checks=CheckPings(pixels[inside], points),
+                   pings=scan.pings + pinger.pings - fired)
 
 
 def segment_sides(segments, regions, claims, offset: float = 5.0,

@@ -1,7 +1,8 @@
 """The surfel map of a set of poses (:class:`SurfelMap`): the registered surfels of all poses
 grouped into global planes, shadow lines removed, the planes refined and grown again in every
 pose's image (:func:`build_map`); :func:`map_surfels` scans the poses, builds the map, fires the
-check pings and builds it again."""
+check pings and builds it again; :func:`map_surfels_along` drives a trajectory, taking a camera
+frame whenever the sonar is free and firing its pings one after another as the robot moves."""
 
 from __future__ import annotations
 
@@ -11,11 +12,13 @@ import numpy as np
 
 from mitsonar.recon.surfels.growing import (_region_at, camera_rays, check_pose, grow_planes,
                                             intersect_planes, segment_sides, shadow_segments)
+from mitsonar.recon.surfels.pinging import MovingPinger, StillPinger
 from mitsonar.recon.surfels.planes import PlaneGroups, _on_planes, group_surfels, refine_planes
 from mitsonar.recon.surfels.scanning import PoseScan, scan_pose
 from mitsonar.recon.surfels.settings import SurfelSettings
 from mitsonar.sensors.camera import CameraModel, CameraRenderer
 from mitsonar.sensors.sonar import Sonar
+from mitsonar.sensors.trajectory import Trajectory
 
 #: Why surfels were not registered (keys of :attr:`SurfelMap.rejected`).
 REJECTIONS = ("no_echo", "verification", "shadow_line")
@@ -39,6 +42,8 @@ class SurfelMap:
         meshes: per pose, the planes grown in its image
             (:class:`~mitsonar.recon.surfels.growing.PoseMesh`).
         settings: the settings the map was built with.
+        times: (P,) when each pose's image was taken [s] (:func:`map_surfels_along`; empty
+            for :func:`map_surfels`'s poses).
     """
 
     scans: list
@@ -54,6 +59,7 @@ class SurfelMap:
     rejected: dict = field(default_factory=dict)
     meshes: list = field(default_factory=list)
     settings: SurfelSettings = SurfelSettings()
+    times: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
     def sample(self, spacing: float = 0.01, seed: int = 0):
         """Points (M, 3) [m] sampled uniformly on the mesh, one per ``spacing``^2 (metrics'
@@ -218,11 +224,11 @@ def map_surfels(sonar: Sonar, poses, odometry=None, settings: SurfelSettings = S
         raise ValueError("map_surfels needs at least one pose")
     if settings.max_range is None:
         settings = replace(settings, max_range=sonar.config.max_range)
-    camera = CameraModel(spp=settings.spp).at_resolution(settings.image_width)
-    renderer = CameraRenderer(sonar.scene, camera)
+    renderer = _renderer(sonar, settings)
     scans = []
     for k, (pose, odo) in enumerate(zip(poses, odometry)):
-        scans.append(scan_pose(sonar, renderer, pose, odo, settings, seed=settings.seed + k))
+        scans.append(scan_pose(StillPinger(sonar, pose), renderer, odo, settings,
+                               seed=settings.seed + k))
         if progress is not None:
             progress(k)
     surfel_map = build_map(scans, settings)
@@ -230,8 +236,66 @@ def map_surfels(sonar: Sonar, poses, odometry=None, settings: SurfelSettings = S
         return surfel_map
     checked = []
     for k, (pose, scan, mesh) in enumerate(zip(poses, scans, surfel_map.meshes)):
-        seed = int(np.random.SeedSequence([settings.seed + k, 2]).generate_state(1)[0])
-        checked.append(check_pose(sonar, pose, scan, mesh, settings, seed))
+        checked.append(check_pose(StillPinger(sonar, pose), scan, mesh, settings,
+                                  _check_seed(settings, k)))
         if progress is not None:
             progress(k)
     return build_map(checked, settings)
+
+
+def _check_seed(settings: SurfelSettings, k: int) -> int:
+    """Seed of pose ``k``'s check pings."""
+    return int(np.random.SeedSequence([settings.seed + k, 2]).generate_state(1)[0])
+
+
+def _renderer(sonar: Sonar, settings: SurfelSettings) -> CameraRenderer:
+    return CameraRenderer(sonar.scene,
+                          CameraModel(spp=settings.spp).at_resolution(settings.image_width))
+
+
+def _mesh_so_far(scans, settings: SurfelSettings):
+    """The planes of the surfels registered in ``scans`` so far, grown in the last scan's image
+    (None before the first registered surfel): what a check ping can be aimed at as the robot
+    drives."""
+    _, _, points, view, extra = _register(scans, [np.zeros(len(s.segments), bool) for s in scans])
+    if not len(points):
+        return None
+    groups = group_surfels(points, view, settings, extra)
+    return grow_planes(scans[-1], scans[-1].segments, groups, points, settings)
+
+
+def map_surfels_along(sonar: Sonar, trajectory: Trajectory,
+                      settings: SurfelSettings = SurfelSettings(), duration: float | None = None,
+                      progress=None) -> SurfelMap:
+    """Surfel map of a robot driving the first ``duration`` [s] of ``trajectory`` (None: all of
+    it) at the sensors' own rates.
+
+    The camera takes a frame every 1 / ``CameraModel.frame_rate`` (25 Hz); whenever the sonar is
+    free the pipeline takes the newest frame, and that frame's pings (four per surfel, the fill
+    pings, then the check pings over the planes registered so far, grown in this image) leave one
+    after another every ``SonarConfig.record_duration`` (the listening time, 30 ms), each from
+    the pose the robot has then and registered with it
+    (:class:`~mitsonar.recon.surfels.pinging.MovingPinger`; no odometry drift). The next frame
+    is the first the camera takes once the last echo is in. The check pings only see the
+    planes known when their frame was taken, unlike :func:`map_surfels`'s second pass. Frames
+    follow each other in time, so the loop over them is sequential. ``progress`` is called with
+    the trajectory time reached [s] after each frame."""
+    if settings.max_range is None:
+        settings = replace(settings, max_range=sonar.config.max_range)
+    renderer = _renderer(sonar, settings)
+    end = trajectory.driven(duration)
+    period = 1.0 / renderer.model.frame_rate
+    scans, times, frame = [], [], 0
+    while frame * period < end:  # frames follow each other in time
+        start, k = frame * period, len(scans)
+        pinger = MovingPinger(sonar, trajectory, image_time=start, time=start)
+        scan = scan_pose(pinger, renderer, pinger.pose, settings, seed=settings.seed + k)
+        mesh = _mesh_so_far(scans + [scan], settings) if settings.check_spacing else None
+        if mesh is not None:
+            scan = check_pose(pinger, scan, mesh, settings, _check_seed(settings, k))
+        scans.append(scan)
+        times.append(start)
+        frame = max(int(np.ceil(pinger.time / period - 1e-9)), frame + 1)
+        if progress is not None:
+            progress(min(frame * period, end))
+    return replace(build_map(scans, settings), times=np.array(times))

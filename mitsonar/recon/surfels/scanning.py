@@ -2,7 +2,8 @@
 triangle surfels detected in it (:mod:`mitsonar.recon.lines`), four pings per surfel, the paper's
 verification (:func:`verify`) and the spread test (:func:`spread_ratio`), registration (12) by the
 odometry pose and the fill pings inside each registered surfel (:func:`fill_pixels`); what the
-pose contributed is a :class:`PoseScan`."""
+pose contributed is a :class:`PoseScan`. A pinger (:mod:`mitsonar.recon.surfels.pinging`) fires
+the beams: all from the image's pose, or one after another while the robot drives on."""
 
 from __future__ import annotations
 
@@ -17,7 +18,6 @@ from mitsonar.recon.lines import (detect_segments, fov_crop_box, scan_directions
 from mitsonar.recon.surfels.planes import fit_plane, plane_through
 from mitsonar.recon.surfels.settings import SurfelSettings
 from mitsonar.sensors.camera import CameraModel, CameraRenderer
-from mitsonar.sensors.sonar import Sonar
 from mitsonar.validation import check_positive
 
 def verify(points, threshold: float = 0.15) -> tuple[np.ndarray, np.ndarray]:
@@ -149,16 +149,18 @@ def fill_pixels(triangles, spacing: float, margin: float, count: int) -> np.ndar
     return out
 
 
-def _fill_directions(camera: CameraModel, geometry, pixels, points_sensor):
-    """Beam directions (k, m, 3) (NaN where none) for fill pixels (k, m, 2), re-aimed at the
-    plane of each surfel's four measured points (k, 4, 3) (sensor frame) to remove the camera's
-    parallax; directions outside the field of view are dropped (NaN)."""
+def _fill_targets(camera: CameraModel, geometry, pixels, points_sensor):
+    """Beam directions (k, m, 3) and their target points (k, m, 3) [m] (NaN where none) for
+    fill pixels (k, m, 2): where each pixel's camera ray meets the plane of its surfel's four
+    measured points (k, 4, 3) (sensor frame), so the camera's parallax is removed; directions
+    outside the field of view are dropped (NaN)."""
     k, m = pixels.shape[:2]
     out = np.full((k, m, 3), np.nan)
+    target = np.full((k, m, 3), np.nan)
     ok = np.all(np.isfinite(pixels), axis=-1) & \
         np.all(np.isfinite(points_sensor), axis=(1, 2))[:, None]
     if not np.any(ok):
-        return out
+        return out, target
     uc, vc = camera.principal_point
     f = camera.focal_pixels
     ray = np.stack([(pixels[..., 0] - uc) / f, (pixels[..., 1] - vc) / f, np.ones((k, m))], -1)
@@ -172,50 +174,53 @@ def _fill_directions(camera: CameraModel, geometry, pixels, points_sensor):
     depth = origin[2] + t  # sensor-frame z of the camera ray's hit of the surfel plane
     ok &= np.isfinite(depth) & (depth > 0.05)
     if not np.any(ok):
-        return out
+        return out, target
     dirs = scan_directions(camera, pixels[ok], depth=depth[ok])
     inside = in_fov(dirs, geometry.fov_horizontal, geometry.fov_vertical)
     rows = np.nonzero(ok)
     out[rows[0][inside], rows[1][inside]] = dirs[inside]
-    return out
+    target[rows[0][inside], rows[1][inside]] = \
+        dirs[inside] * (depth[ok][inside] / dirs[inside, 2])[:, None]
+    return out, target
 
 
-def scan_pose(sonar: Sonar, renderer: CameraRenderer, true_pose: Pose, odometry_pose: Pose,
+def scan_pose(pinger, renderer: CameraRenderer, odometry_pose: Pose,
               settings: SurfelSettings = SurfelSettings(), seed: int = 0) -> PoseScan:
-    """Render, detect lines and surfels, ping their scan points in one scan, verify, register.
+    """Render, detect lines and surfels, ping their scan points, verify, register, fill.
 
-    ``true_pose`` places the sensor in the scene; ``odometry_pose`` registers the points (12).
+    ``pinger`` (:class:`~mitsonar.recon.surfels.pinging.StillPinger` or
+    :class:`~mitsonar.recon.surfels.pinging.MovingPinger`) fires the beams; its ``pose`` places
+    the camera in the scene; ``odometry_pose`` registers the points (12).
     """
     camera = renderer.model
-    images = renderer.render(true_pose, seed=seed)
+    sonar = pinger.sonar
+    fired = pinger.pings
+    images = renderer.render(pinger.pose, seed=seed)
     box = fov_crop_box(camera, sonar.config.geometry)
-    segments = detect_segments(tone_map(images.gray), box, settings.segment_min_length)
+    segments = detect_segments(tone_map(images.gray), box, settings.segment_min_length,
+                               slope_sigma=settings.slope_sigma)
     surfels = triangle_surfels(segments)
     pixels = scan_pixels(surfels.vertices) if len(surfels) else np.zeros((0, 4, 2))
     directions = scan_directions(camera, pixels)
-    points = np.full((len(surfels), 4, 3), np.nan)
-    if len(surfels):
-        scan = sonar.scan(true_pose, directions.reshape(-1, 3), seed=seed)
-        points = odometry_pose.transform_points(scan.points_sensor).reshape(-1, 4, 3)
+    measured = pinger.fire(directions.reshape(-1, 3), seed).reshape(-1, 4, 3)
+    points = odometry_pose.transform_points(measured)
     accepted, residual = verify(points, settings.verify_threshold) if len(points) else \
         (np.zeros(0, bool), np.zeros(0))
     if len(surfels):
-        spread = spread_ratio(scan.points_sensor.reshape(-1, 4, 3), directions.reshape(-1, 4, 3))
+        spread = spread_ratio(measured, directions.reshape(-1, 4, 3))
         accepted &= np.nan_to_num(spread) >= settings.min_spread
     fill = np.full((len(surfels), settings.max_fill, 3), np.nan)
-    pings = 4 * len(surfels)
     if settings.max_fill and np.any(accepted):
         f = camera.focal_pixels
         fp = fill_pixels(surfels.vertices[accepted], f * np.tan(settings.fill_spacing),
                          f * np.tan(settings.fill_margin), settings.max_fill)
-        measured = scan.points_sensor.reshape(-1, 4, 3)[accepted]
-        dirs = _fill_directions(camera, sonar.config.geometry, fp, measured)
+        dirs, targets = _fill_targets(camera, sonar.config.geometry, fp, measured[accepted])
         aim = np.all(np.isfinite(dirs), axis=-1)
         if np.any(aim):
-            second = sonar.scan(true_pose, dirs[aim],
-                                seed=int(np.random.SeedSequence([seed, 1]).generate_state(1)[0]))
+            fill_seed = int(np.random.SeedSequence([seed, 1]).generate_state(1)[0])
+            second = pinger.fire(dirs[aim], fill_seed, targets[aim])
             got = np.full(dirs.shape, np.nan)
-            got[aim] = odometry_pose.transform_points(second.points_sensor)
+            got[aim] = odometry_pose.transform_points(second)
             # a fill echo off the surfel's plane by more than the verification threshold came
             # from something else (an object in front, a side lobe): dropped
             world = points[accepted]
@@ -224,6 +229,5 @@ def scan_pose(sonar: Sonar, renderer: CameraRenderer, true_pose: Pose, odometry_
                 far = np.abs(got[i] @ n - d) > settings.verify_threshold
                 got[i][far] = np.nan
             fill[accepted] = got
-            pings += int(aim.sum())
     return PoseScan(odometry_pose, camera, box, segments, surfels.vertices, surfels.segment_pairs,
-                    points, residual, accepted, images.gray, pings, fill)
+                    points, residual, accepted, images.gray, pinger.pings - fired, fill)

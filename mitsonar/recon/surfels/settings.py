@@ -7,6 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from mitsonar.recon.lines import SLOPE_SIGMA
 from mitsonar.validation import check_positive, check_range
 
 @dataclass(frozen=True)
@@ -19,6 +20,9 @@ class SurfelSettings:
             path-traced images).
         min_length: shortest line segment kept [pixels]; None: the paper's 50 px at 1600 px,
             scaled to ``image_width``.
+        slope_sigma: scale of the shading-slope creases the line detector also finds [pixels]
+            (:func:`~mitsonar.recon.lines.slope_strength`); None: steps of brightness only, as
+            the paper's FLD.
         verify_threshold: largest distance of the measured centroid from the plane of the three
             other measured points for a surfel to be registered [m] (paper: 0.15 m).
         min_spread: smallest :func:`~mitsonar.recon.surfels.scanning.spread_ratio` of a
@@ -68,6 +72,7 @@ class SurfelSettings:
     image_width: int = 400
     spp: int = 8
     min_length: float | None = None
+    slope_sigma: float | None = SLOPE_SIGMA
     verify_threshold: float = 0.15
     min_spread: float = 0.5
     merge_angle: float = np.radians(10.0)
@@ -106,6 +111,8 @@ class SurfelSettings:
                 raise ValueError(f"SurfelSettings.{name} must be a positive integer, got {value}")
         if self.min_length is not None:
             check_positive("SurfelSettings.min_length [pixels]", self.min_length)
+        if self.slope_sigma is not None:
+            check_positive("SurfelSettings.slope_sigma [pixels]", self.slope_sigma)
         check_positive("SurfelSettings.verify_threshold [m]", self.verify_threshold)
         check_range("SurfelSettings.min_spread", self.min_spread, 0.0, 1.0)
         check_range("SurfelSettings.merge_angle [rad]", self.merge_angle, 0.0, np.pi / 2)

@@ -1,6 +1,20 @@
 """Light: area-light panels set into the ceiling, a directional sun falling through the windows
 (sunlit patches with sharp shadow edges, the paper's "shadow lines") and a sky/ground
-environment map seen through them."""
+environment map seen through them; or the key light, fill and ambient of the ``key`` look.
+
+Two looks (:data:`LIGHTINGS`):
+
+* ``key`` (default): the lighting of the paper's Gazebo worlds. A directional key light from
+  high on one side and a weaker fill from the other (plugin ``key_light``: the building's walls
+  and ceiling cast no shadows of them, furniture does), a constant ambient term (plugin
+  ``ambient_light``) and the ceiling panels, rendered with direct light only (Mitsuba's
+  ``direct`` integrator; the camera follows it): each flat surface is lit evenly by the cosine
+  of its angle to the lights, so walls facing different ways and the floor differ in
+  brightness at their creases (:data:`KEY_DIRECTION`).
+* ``ceiling``: the ceiling panels, the sun through the windows and light bouncing around the
+  room (path tracing): a realistic look in which two adjacent walls of one paint often meet with
+  no step in brightness.
+"""
 
 from __future__ import annotations
 
@@ -19,6 +33,24 @@ STRIP_RADIANCE = (16.0, 16.0, 15.0)
 #: normal to the rays.
 SUN_DIRECTION = (-0.55, -0.45, -0.5)
 SUN_IRRADIANCE = (6.0, 5.6, 5.0)
+
+#: Scene lighting looks (module docstring); the first is the default.
+LIGHTINGS = ("key", "ceiling")
+#: Key light: direction the light travels, from 55 deg above the horizon at azimuth 30 deg from
+#: +x towards +y, and its irradiance [W/m^2] normal to the rays (a floor of albedo 0.7, the
+#: palest drawn, shows 0.75: images stay below 1 without tone mapping). With the fill and the
+#: ambient term below, a wall facing +x, +y, -x, -y and the floor get 0.65, 0.44, 0.31, 0.43 and
+#: 1.35 times the key's irradiance: adjacent walls differ by factors 1.38-1.51, and the floor, the
+#: brightest, differs from every wall by a factor 1.19 or more for floors 1 to 2.5 times darker
+#: than the walls (directions and strengths chosen on a grid for the largest smallest factor;
+#: direct light only, ceiling panels aside).
+KEY_DIRECTION = (-0.4967, -0.2868, -0.8192)
+KEY_IRRADIANCE = 2.5
+#: Fill light: from 50 deg above the horizon at azimuth 240 deg, half the key's irradiance.
+FILL_DIRECTION = (0.3214, 0.5567, -0.766)
+FILL_IRRADIANCE = 1.25
+#: Ambient irradiance [W/m^2] (every surface, whatever its orientation): 0.15 of the key's.
+AMBIENT_IRRADIANCE = 0.375
 
 
 def ceiling_lights(lights: list[tuple[Rect2, tuple]], height: float,
@@ -41,6 +73,40 @@ def sun_xml(direction, irradiance) -> list[str]:
             f'    <vector name="direction" value="{fmt_vec(direction)}"/>',
             f'    <rgb name="irradiance" value="{fmt_vec(irradiance)}"/>',
             '</emitter>']
+
+
+#: Path length of direct light only: the camera ray's hit and one ray to a light.
+DIRECT_DEPTH = 2
+
+
+def direct_light_integrator(scene) -> dict | None:
+    """Where a loaded ``mi.Scene``'s file asks for Mitsuba's ``direct`` integrator (the ``key``
+    look), the integrator (a ``load_dict`` dictionary) that renders its direct light: ``volpath``
+    to depth 2, whose passes through glass (null interactions) are no bounces, so what stands
+    behind a glass partition is lit as what stands in front of it (``direct`` and ``path``
+    leave it black); None for scenes in another look."""
+    own = scene.integrator()  # None where the scene file names none
+    if own is not None and own.class_name() == "DirectIntegrator":
+        return {"type": "volpath", "max_depth": DIRECT_DEPTH}
+    return None
+
+
+def key_lights_xml(rooms) -> list[str]:
+    """XML lines of the ``key`` look's key light, fill and ambient term; ``rooms``: the room
+    boxes (x0, x1, y0, y1, z0, z1) [m] whose walls and ceiling cast no shadows of them."""
+    boxes = "; ".join(" ".join(fmt(v) for v in box) for box in rooms)
+    out = ['<!-- key look (the paper\'s Gazebo worlds): key light and fill, parallel, whose '
+           'shadows only what stands in a room casts, and a constant ambient term -->']
+    for name, direction, irradiance in (("key", KEY_DIRECTION, KEY_IRRADIANCE),
+                                        ("fill", FILL_DIRECTION, FILL_IRRADIANCE)):
+        out += [f'<emitter type="key_light" id="{name}_light">',
+                f'    <vector name="direction" value="{fmt_vec(direction)}"/>',
+                f'    <rgb name="irradiance" value="{fmt_vec([irradiance] * 3)}"/>',
+                f'    <string name="rooms" value="{boxes}"/>',
+                '</emitter>']
+    return out + ['<emitter type="ambient_light" id="ambient_light">',
+                  f'    <rgb name="irradiance" value="{fmt_vec([AMBIENT_IRRADIANCE] * 3)}"/>',
+                  '</emitter>']
 
 
 #: Environment map file, beside scene.xml.

@@ -9,13 +9,16 @@ rooms, windows, light and a robot trajectory, and writes its directory ``<out>/<
   Materials are ``<bsdf type="acoustic">`` with a ``preset`` and a nested optical BSDF (plain
   ``diffuse`` colours, or a ``bitmap`` texture written beside the scene as reflectance); windows
   are holes in their wall filled by a ``thindielectric`` pane (the camera sees through it, the
-  sonar reflects from it). Light: area-light panels set into the ceiling (interior walls cast
-  their shadows) and, where a scene has windows, a sky/ground environment map seen through them
-  and a directional sun falling through them in sunlit patches with sharp shadow edges (the
-  paper's "shadow lines"). The integrator is ``volpath``: unlike ``path``, its shadow rays pass
-  thin glass panes (their null transmission). That needs the ``acoustic`` BSDF to forward
+  sonar reflects from it). Light (:attr:`SceneSpec.lighting`,
+  :mod:`mitsonar.scene.building.lights`): area-light panels set into the ceiling and, where a
+  scene has windows, a sky/ground environment map seen through them; then either the ``key``
+  look (default: a key light, a fill and an ambient term, direct light only, Mitsuba's
+  ``direct`` integrator) or the ``ceiling`` look (a directional sun falling through the windows
+  in sunlit patches with sharp shadow edges, the paper's "shadow lines"; interior walls cast
+  the panels' shadows; integrator ``volpath``: unlike ``path``, its shadow rays pass thin glass
+  panes (their null transmission). That needs the ``acoustic`` BSDF to forward
   ``eval_null_transmission`` to its nested BSDF; where it does not, sun and direct sky light
-  stop at the glass (the sky is still seen through it). A
+  stop at the glass (the sky is still seen through it)). A
   ``perspective`` camera placeholder sits at the camera of a robot at the world origin facing
   +x; its film size, samples per pixel and path depth are the XML defaults ``width``,
   ``height``, ``spp`` and ``max_depth`` (override them with ``mi.load_file(path, spp=...)``).
@@ -47,7 +50,8 @@ import numpy as np
 from mitsonar.frames import SENSOR_MOUNT_TRANSLATION
 from mitsonar.scene.building.formatting import (dump_json, fmt, fmt_vec, rounded, rounded_area,
                                                 rounded_list, write_atomic)
-from mitsonar.scene.building.lights import SKY_FILE, sky_png, sky_xml, sun_xml
+from mitsonar.scene.building.lights import (LIGHTINGS, SKY_FILE, key_lights_xml, sky_png,
+                                            sky_xml, sun_xml)
 from mitsonar.scene.building.materials import Material
 from mitsonar.scene.building.shapes import Shape
 from mitsonar.scene.building.textures import TEXTURES
@@ -74,7 +78,11 @@ class SceneSpec:
         speed: robot speed along the trajectory [m/s].
         yaw_rate: turning rate in place [deg/s].
         sky: write the sky environment map (scenes with windows).
-        sun: (direction of travel, irradiance [W/m^2] linear RGB) of a directional sun, or None.
+        sun: (direction of travel, irradiance [W/m^2] linear RGB) of a directional sun, or None
+            (``ceiling`` look only: the ``key`` look has its key light instead).
+        lighting: the look, one of :data:`~mitsonar.scene.building.lights.LIGHTINGS`: 'key'
+            (key light, fill and ambient, direct light only) or 'ceiling' (ceiling panels, sun
+            and interreflection).
         overview: (origin, target) of the overview camera used for the README preview.
     """
 
@@ -90,7 +98,30 @@ class SceneSpec:
     yaw_rate: float = 30.0
     sky: bool = False
     sun: tuple | None = None
+    lighting: str = LIGHTINGS[0]
     overview: tuple = ((0.0, 0.0, 2.0), (1.0, 0.0, 1.0))
+
+    def __post_init__(self):
+        if self.lighting not in LIGHTINGS:
+            raise ValueError(f"scene '{self.name}': lighting must be one of {LIGHTINGS}, got "
+                             f"{self.lighting!r}")
+
+    def room_boxes(self) -> list[tuple[float, ...]]:
+        """(x0, x1, y0, y1, 0, height) [m] of every room: the boxes whose walls and ceiling cast
+        no shadows of the ``key`` look's lights."""
+        return [(*r["x"], *r["y"], 0.0, self.height) for r in self.rooms]
+
+    def _integrator_xml(self) -> list[str]:
+        if self.lighting == "key":
+            return ['    <!-- direct: light reaches each surface straight from the lights, as in '
+                    'the rasterised Gazebo worlds; the ambient term stands in for the bounces -->',
+                    '    <integrator type="direct"/>']
+        return ['    <!-- volpath: its shadow rays continue through thin glass panes (null '
+                'transmission), so sun and sky light reach the room through the windows where '
+                'the acoustic BSDF forwards eval_null_transmission -->',
+                '    <integrator type="volpath">',
+                '        <integer name="max_depth" value="$max_depth"/>',
+                '    </integrator>']
 
     def material(self, mat: Material) -> str:
         """Register ``mat`` (again, if unchanged) and return its id."""
@@ -156,12 +187,7 @@ class SceneSpec:
                '    <default name="height" value="1200"/>',
                '    <default name="max_depth" value="8"/>',
                '',
-               '    <!-- volpath: its shadow rays continue through thin glass panes (null '
-               'transmission), so sun and sky light reach the room through the windows where '
-               'the acoustic BSDF forwards eval_null_transmission -->',
-               '    <integrator type="volpath">',
-               '        <integer name="max_depth" value="$max_depth"/>',
-               '    </integrator>',
+               *self._integrator_xml(),
                '',
                '    <!-- camera placeholder: robot at (0, 0, yaw 0); sensor head 0.1 m ahead and'
                ' 0.5 m up, camera 0.075 m above it -->',
@@ -184,7 +210,9 @@ class SceneSpec:
                '        </film>',
                '    </sensor>',
                '']
-        if self.sun is not None:
+        if self.lighting == "key":
+            out += ["    " + line for line in key_lights_xml(self.room_boxes())] + ['']
+        elif self.sun is not None:
             out += ["    " + line for line in sun_xml(*self.sun)] + ['']
         if self.sky:
             out += ["    " + line for line in sky_xml()] + ['']

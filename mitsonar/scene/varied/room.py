@@ -11,7 +11,8 @@ same seed writes byte-identical files:
   corners. It starts at the world origin facing +x, with a clear view of the wall ahead.
 * glass (:mod:`~mitsonar.scene.varied.glass`): windows in the outer walls and/or a free-standing
   glass partition (every room has at least one), a sun through a window in most rooms with
-  windows, and the sky seen through them.
+  windows (the ``ceiling`` look's; the ``key`` look has its key light instead), and the sky
+  seen through them.
 * looks (:mod:`~mitsonar.scene.varied.looks`): wall colours (pale near-uniform ones included)
   and textures, floor and ceiling finishes, ceiling lights of one kind.
 * furniture (:mod:`~mitsonar.scene.varied.furniture`): a cabinet and more pieces (shelves,
@@ -25,13 +26,13 @@ footprint in ground_truth.json, the windows are listed under ``windows``. Write 
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
 
 from mitsonar.scene.building.furniture import glass_partition
-from mitsonar.scene.building.lights import ceiling_lights
+from mitsonar.scene.building.lights import LIGHTINGS, ceiling_lights
 from mitsonar.scene.building.materials import PANEL_WHITE, Material
 from mitsonar.scene.building.shell import ThickWall, enclosure
 from mitsonar.scene.building.spec import SceneSpec
@@ -53,21 +54,25 @@ NAMES = {"cabinet": ("cabinet", "cabinets"), "shelves": ("shelf unit", "shelf un
          "desk": ("desk", "desks"), "lamp": ("floor lamp", "floor lamps")}
 
 
-def varied_room(seed: int) -> SceneSpec:
+def varied_room(seed: int, lighting: str = LIGHTINGS[0]) -> SceneSpec:
     """The room ``varied_<seed>``: a deterministic function of ``seed`` (see the module
-    docstring for what is drawn)."""
+    docstring for what is drawn), lit in the look ``lighting``
+    (:data:`~mitsonar.scene.building.lights.LIGHTINGS`; the same room either way)."""
     rng = np.random.default_rng(seed)
     for _ in range(ATTEMPTS):
         plan = _plan(rng)
         if plan is not None:
-            return _spec(rng, int(seed), plan)
+            return replace(_spec(rng, int(seed), plan), lighting=lighting)
     raise RuntimeError(f"varied_room({seed}): no room in {ATTEMPTS} draws")
 
 
-def write_varied_rooms(out_dir, seeds) -> list[Path]:
-    """Write ``varied_room(seed)`` for each of ``seeds`` into ``out_dir/varied_<seed>/``;
-    returns the scene.xml paths."""
-    return [varied_room(s).write(Path(out_dir), f"mitsonar.scene.varied.varied_room({s})")
+def write_varied_rooms(out_dir, seeds, lighting: str = LIGHTINGS[0]) -> list[Path]:
+    """Write ``varied_room(seed, lighting)`` for each of ``seeds`` into
+    ``out_dir/varied_<seed>/``; returns the scene.xml paths."""
+    return [varied_room(s, lighting).write(Path(out_dir),
+                                           f"mitsonar.scene.varied.varied_room({s}"
+                                           + ("" if lighting == LIGHTINGS[0] else
+                                              f", lighting={lighting!r}") + ")")
             for s in seeds]
 
 
