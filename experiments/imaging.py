@@ -338,7 +338,8 @@ def save_figure(path: Path, rows) -> None:
             for ax in (top, bottom):
                 ax.axvline(times * TODAY_POINTS_PER_S, color=colour, ls="--", lw=1)
             top.axhline(100 * accuracy, color=colour, ls="--", lw=1,
-                        label=f"{preset} goal: {times:g}x today, {100 * accuracy:.0f} % within 2 cm")
+                        label=f"{preset} goal: {times:g}x today, "
+                              f"{100 * accuracy:.0f} % within 2 cm")
         for ax, label in ((top, "points within 2 cm [%]"),
                           (bottom, "completeness within 5 cm [%], simulated frames")):
             ax.set_xscale("log")
