@@ -73,6 +73,7 @@ if str(Path(__file__).resolve().parent) not in sys.path:  # the comparison's def
 from comparison import THIN_VOXEL, VIEW_PERIOD, VoxelThinner  # noqa: E402
 
 SCENES = Path(__file__).resolve().parents[1] / "scenes"
+SCENE_NAMES = ("office", "workshop")
 PRESETS = ("default", "paper")
 SCANS = ("sequential", "ofdm", "imaging")
 #: Echo sets of one sequential or OFDM simulation (module docstring).
@@ -372,9 +373,10 @@ def _subset(text: str, known, option: str) -> list[str]:
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, default=Path("out/imaging"))
-    parser.add_argument("--scenes", default="office,workshop", help="comma separated")
-    parser.add_argument("--presets", default=",".join(PRESETS), help="comma separated")
-    parser.add_argument("--scans", default=",".join(SCANS), help="comma separated")
+    choices = {"scenes": SCENE_NAMES, "presets": PRESETS, "scans": SCANS}
+    for option, known in choices.items():
+        parser.add_argument(f"--{option}", default=",".join(known),
+                            help=f"comma separated subset of {', '.join(known)} (default: all)")
     parser.add_argument("--duration", type=float, default=None,
                         help="drive only the first DURATION seconds (default: the whole "
                              "trajectory)")
@@ -389,9 +391,8 @@ def main(argv=None) -> int:
                         help="office, 0.3 s of driving, 20 deg grid, 16 rays per axis per beam "
                              "and 32 per image, 5 cm ground truth (for the test suite)")
     args = parser.parse_args(argv)
-    scenes = _subset(args.scenes, ("office", "workshop"), "--scenes")
-    presets = _subset(args.presets, PRESETS, "--presets")
-    scans = _subset(args.scans, SCANS, "--scans")
+    scenes, presets, scans = (_subset(getattr(args, option), known, f"--{option}")
+                              for option, known in choices.items())
     if args.stride < 1:
         raise ValueError(f"--stride must be >= 1, got {args.stride}")
     settings = RunSettings(args.duration, args.stride, np.radians(args.step), args.spacing, None,
