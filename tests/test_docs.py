@@ -79,6 +79,8 @@ QUICK: list[tuple[str, dict | str]] = [
                    "shadow_lines", "speed_accuracy") for quick in ("", "--quick ")],
     (".venv/bin/python experiments/wall_validation.py --out out/wall_validation",
      BY_TEST_EXPERIMENTS),
+    (".venv/bin/python experiments/imaging.py --stride 20 --out out/imaging", BY_TEST_EXPERIMENTS),
+    (".venv/bin/python experiments/imaging.py --quick --out out/imaging", BY_TEST_EXPERIMENTS),
 ]
 
 

@@ -6,17 +6,22 @@ import sys
 
 import numpy as np
 import pytest
-from helpers import ROOT
+from helpers import ROOT, SCENES
 
 EXPERIMENTS = ROOT / "experiments"
 
 
-def run_experiment(name: str, *argv) -> None:
+def load_experiment(name: str):
+    """The module of experiments/<name>.py."""
     spec = importlib.util.spec_from_file_location(name, EXPERIMENTS / f"{name}.py")
     module = importlib.util.module_from_spec(spec)
     sys.modules[name] = module  # dataclasses look their module up there
     spec.loader.exec_module(module)
-    assert module.main(list(argv)) == 0
+    return module
+
+
+def run_experiment(name: str, *argv) -> None:
+    assert load_experiment(name).main(list(argv)) == 0
 
 
 def test_wall_validation_two_distances(tmp_path):
@@ -132,6 +137,78 @@ def test_shadow_lines_quick(tmp_path):
     assert int(rows["on"]["shadow_surfels"]) == 0
     assert (tmp_path / "shadow_lines.png").stat().st_size > 30_000
     assert "removed in poses" in (tmp_path / "shadow_lines.md").read_text()
+
+
+@pytest.mark.slow
+def test_imaging_quick(tmp_path):
+    """Every preset and strategy has a row; the scans run at their own rates (a sweep of B
+    pings a listening time each, an OFDM frame, an image a listening time); points per second
+    are points per frame times frames per second; one simulation's echo sets nest (first within
+    all within cells)."""
+    import mitsonar
+    from mitsonar.sensors.ofdm_sonar import OfdmSonar
+
+    run_experiment("imaging", "--quick", "--out", str(tmp_path))
+    rows = {(r["preset"], r["strategy"]): r
+            for r in csv.DictReader((tmp_path / "imaging.csv").open())}
+    strategies = [f"{scan}_{e}" for scan in ("sequential", "ofdm")
+                  for e in ("first", "all", "cells")] + ["imaging"]
+    assert set(rows) == {(p, s) for p in ("default", "paper") for s in strategies}
+    for (preset, strategy), r in rows.items():
+        number = {k: float(v) for k, v in r.items() if k not in ("scene", "strategy", "preset",
+                                                                  "scan", "echoes")}
+        assert 0 <= number["accuracy_pct"] <= 100 and 0 <= number["completeness_5cm_pct"] <= 100
+        assert 0 < number["vlp16_completeness_5cm_pct"] <= 100
+        assert number["frames_simulated"] == number["frames_total"] >= 1  # stride 1
+        assert number["points_per_s"] == pytest.approx(
+            number["points_per_frame"] * number["frame_rate_hz"], rel=1e-5)
+        config = mitsonar.SonarConfig.preset(preset)
+        beams = len(config.geometry.fov_grid(np.radians(20.0)))
+        period = {"sequential": beams * config.record_duration,
+                  "ofdm": OfdmSonar(mitsonar.Sonar(SCENES / "office" / "scene.xml", config))
+                  .schedule(config.geometry.fov_grid(np.radians(20.0))).frame_duration,
+                  "imaging": config.record_duration}[r["scan"]]
+        assert number["frame_rate_hz"] == pytest.approx(1 / period, rel=1e-5)
+    for preset in ("default", "paper"):
+        for scan in ("sequential", "ofdm"):
+            points = [int(rows[preset, f"{scan}_{e}"]["points"]) for e in ("first", "all", "cells")]
+            assert points == sorted(points) and points[-1] > 0, (preset, scan, points)
+    assert int(rows["paper", "ofdm_all"]["points"]) > int(rows["paper", "ofdm_first"]["points"])
+    assert (tmp_path / "imaging.png").stat().st_size > 30_000
+    assert "completeness 5 cm" in (tmp_path / "imaging.md").read_text()
+
+
+def test_imaging_echo_sets_of_one_frame(scene_file):
+    """The chart's echo sets of an OFDM frame simulated with echoes = "cells": "all" is exactly
+    the frame that echoes = "all" gives (the sphere's beam hears the sphere and the wall), and
+    "first" its rank-0 rows (a sphere before a rough wall, broadband transducers, moving at
+    0.5 m/s)."""
+    import mitsonar
+    from mitsonar.frames import direction_from_fov_angles
+    from mitsonar.scene.xml import material_xml, rectangle_xml, sphere_xml
+    from mitsonar.sensors.ofdm_sonar import OfdmSonar
+
+    echo_sets = load_experiment("imaging").echo_sets
+    path = scene_file("sphere", material_xml("t", preset="metal", scattering=0.0),
+                      material_xml("w", preset="concrete", scattering=0.6),
+                      sphere_xml("t", 1.4 * direction_from_fov_angles(np.radians(1.5), 0.0), 0.03),
+                      rectangle_xml("w", (0, 0, 2.2), (0, 30, 0), size=(8.0, 8.0)))
+    directions = direction_from_fov_angles(np.radians([0.0, -10.0, 10.0, 15.0]),
+                                           np.radians([0.0, 0.0, 5.0, -10.0]))
+    frames = {}
+    for mode in ("all", "cells"):
+        sonar = mitsonar.Sonar(path, mitsonar.SonarConfig(
+            transducer=mitsonar.Transducer(bandwidth_6db=20e3),
+            detection=mitsonar.DetectionSettings(echoes=mode)))
+        ofdm = OfdmSonar(sonar)
+        frames[mode] = ofdm.frame(ofdm.schedule(directions),
+                                  lambda t: mitsonar.Pose(np.eye(3), [0.0, 0.0, 0.5 * t]), seed=3)
+    every = frames["all"]
+    sets = echo_sets(frames["cells"].echo_table, frames["cells"].echo_points_world)
+    np.testing.assert_array_equal(sets["all"], every.echo_points_world)
+    np.testing.assert_array_equal(sets["first"],
+                                  every.echo_points_world[every.echo_table.rank == 0])
+    assert len(sets["first"]) < len(sets["all"]) <= len(sets["cells"])
 
 
 def test_tables_keep_counts_exact(tmp_path):

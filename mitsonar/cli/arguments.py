@@ -12,6 +12,7 @@ import numpy as np
 
 from mitsonar.scene.catalog import resolve_scene
 from mitsonar.sensors.trajectory import Trajectory
+from mitsonar.signal.detection import ECHO_MODES
 
 #: A value that starts like a negative number ('-1.8,0,0', '-.5'), not like an option.
 _NEGATIVE = re.compile(r"-\.?\d")
@@ -126,6 +127,15 @@ def add_preset_argument(parser) -> None:
                         help="sonar model: 'default' (the physical model) or 'paper' (the "
                              "paper's: point reflectors, ideal transducers, 340 m/s) "
                              "(default: default)")
+
+
+def add_echoes_argument(parser, default: str, what: str) -> None:
+    """The ``--echoes`` option: which echoes of each beam ``what`` takes
+    (``DetectionSettings.echoes``)."""
+    parser.add_argument("--echoes", choices=ECHO_MODES, default=default,
+                        help=f"echoes of each beam {what}: the strongest ('first'), every echo "
+                             f"('all') or every range cell across extended echoes too ('cells') "
+                             f"(default {default})")
 
 
 def add_record_argument(parser) -> None:

@@ -6,8 +6,9 @@ from pathlib import Path
 
 import numpy as np
 
-from mitsonar.cli.arguments import (add_preset_argument, add_scene_argument, command_group,
-                                    output_directory, output_file)
+from mitsonar.cli.arguments import (add_echoes_argument, add_preset_argument,
+                                    add_scene_argument, command_group, output_directory,
+                                    output_file)
 from mitsonar.data.dataset import DatasetSpec, open_dataset, render_dataset
 
 
@@ -33,6 +34,7 @@ def add_cli(subparsers) -> None:
                    help="base seed of the noise, diffuse phases, odometry drift and renderer "
                         "(default 0)")
     add_preset_argument(r)
+    add_echoes_argument(r, DatasetSpec.echoes, "recorded, with their attributes")
     r.add_argument("--workers", type=int, default=1, help="local worker processes (default 1)")
     r.add_argument("--scheduler", default=None,
                    help="Dask scheduler address, or 'local' for a Dask LocalCluster of --workers "
@@ -61,7 +63,7 @@ def _run_render(args) -> int:
         raise ValueError(f"{args.scene}: scene file not found")
     spec = DatasetSpec(str(args.scene), period=args.period, scan_step=np.radians(args.step),
                        image_width=args.width, spp=args.spp, seed=args.seed,
-                       max_samples=args.samples, sonar_preset=args.preset)
+                       max_samples=args.samples, sonar_preset=args.preset, echoes=args.echoes)
     total = len(spec.timeline()[0])
     with tqdm(total=total, desc="samples", unit="sample", file=sys.stderr) as bar:
         done = sum((args.out / "samples" / f"{k:06d}" / "manifest.json").exists() for k in range(total))

@@ -6,8 +6,8 @@ import sys
 
 import numpy as np
 
-from mitsonar.cli.arguments import (add_output_argument, add_preset_argument,
-                                    add_record_argument, add_scene_argument,
+from mitsonar.cli.arguments import (add_echoes_argument, add_output_argument,
+                                    add_preset_argument, add_record_argument, add_scene_argument,
                                     add_trajectory_argument, command_group, trajectory_from_args)
 from mitsonar.recon.repeated import REGISTRATIONS, RepeatedMapSpec, map_repeated
 from mitsonar.recon.surfels import (SurfelSettings, map_surfels, map_surfels_along,
@@ -40,6 +40,7 @@ def add_cli(subparsers) -> None:
     r.add_argument("--registration", choices=REGISTRATIONS, default="beam",
                    help="pose of the points: each beam's pose at firing ('beam') or one odometry "
                         "pose per frame ('frame', the paper's) (default: beam)")
+    add_echoes_argument(r, RepeatedMapSpec.echoes, "that become points")
     r.add_argument("--seed", type=int, default=0,
                    help="seed of the noise and the diffuse phases (default 0)")
     add_record_argument(r)
@@ -89,7 +90,7 @@ def _run_repeated(args) -> int:
     trajectory, driven = _drive(args)
     spec = RepeatedMapSpec(frames=args.frames, duration=driven, scan_step=np.radians(args.step),
                            voxels=VoxelMapSettings(voxel_size=args.voxel),
-                           registration=args.registration, seed=args.seed)
+                           registration=args.registration, echoes=args.echoes, seed=args.seed)
     sonar = Sonar(args.scene, config)
     with tqdm(desc="OFDM frames", unit="frame", file=sys.stderr) as bar:
         def step(_, total):
@@ -100,9 +101,9 @@ def _run_repeated(args) -> int:
     save_voxel_ply(args.out / "voxel_map.ply", voxels)
     save_voxel_figure(args.out / "voxel_map.png", voxels, positions,
                       title=f"{args.scene.parent.name}: {len(frames)} OFDM frames")
-    detected = sum(int(s.frame.detected.sum()) for s in frames)
-    print(f"{detected} points from {len(frames)} frames -> {len(voxels)} voxels; wrote "
-          f"{args.out}/voxel_map.ply and voxel_map.png (top, side and 3-D views).")
+    echoes = sum(len(s.frame.echo_table) for s in frames)
+    print(f"{echoes} points ({args.echoes} echoes) from {len(frames)} frames -> {len(voxels)} "
+          f"voxels; wrote {args.out}/voxel_map.ply and voxel_map.png (top, side and 3-D views).")
     if args.record is not None:
         from mitsonar.data.map_mcap import record_repeated
         from mitsonar.data.mcap_recorder import describe

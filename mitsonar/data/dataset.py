@@ -7,8 +7,9 @@ On disk (format version 1)::
         rgb.exr, gray.exr      linear radiance (float32 EXR); rgb.png, gray.png: sRGB previews
         depth.exr              camera z-depth [m] (inf: nothing), float32 EXR
         shape_index.png        16-bit PNG: index+1 into dataset.json's shape_ids (0: nothing)
-        echoes.npz             per-microphone echoes of the scan and its detections (the keys of
-                               ``mitsonar scan``'s echoes.npz)
+        echoes.npz             per-microphone echoes of the scan and its detections: every echo
+                               of every beam with its attributes (the keys of ``mitsonar
+                               scan``'s echoes.npz)
         pose.json              time, robot pose (ground truth and odometry), sensor poses
         manifest.json          size and SHA-256 of every file above, written last
 
@@ -31,7 +32,7 @@ import os
 import shutil
 import tempfile
 from concurrent.futures import ProcessPoolExecutor
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from multiprocessing import get_context
 from pathlib import Path
 
@@ -40,6 +41,7 @@ import numpy as np
 from mitsonar.sensors.camera import CameraModel, CameraRenderer, srgb8
 from mitsonar.io import atomic_path
 from mitsonar.sensors.sonar import Sonar, SonarConfig
+from mitsonar.signal.detection import ECHO_MODES
 from mitsonar.sensors.trajectory import OdometryDrift, Trajectory, sensor_poses
 from mitsonar.validation import check_positive
 
@@ -68,6 +70,8 @@ class DatasetSpec:
         speed: [m/s] and yaw_rate [rad/s] with an explicit trajectory.
         odometry: odometry drift model.
         sonar_preset: 'default' or 'paper'.
+        echoes: which echoes of each beam ``echoes.npz`` records in its echo table, with their
+            attributes (``DetectionSettings.echoes``: 'first', 'all' or 'cells').
     """
 
     scene: str
@@ -82,6 +86,7 @@ class DatasetSpec:
     yaw_rate: float = np.radians(30.0)
     odometry: OdometryDrift = field(default_factory=OdometryDrift)
     sonar_preset: str = "default"
+    echoes: str = "all"
 
     def __post_init__(self):
         check_positive("DatasetSpec.period [s]", self.period)
@@ -90,6 +95,9 @@ class DatasetSpec:
             raise ValueError(f"DatasetSpec.image_width must be an integer >= 8, got {self.image_width}")
         if self.max_samples is not None and self.max_samples < 1:
             raise ValueError(f"DatasetSpec.max_samples must be >= 1, got {self.max_samples}")
+        if self.echoes not in ECHO_MODES:
+            raise ValueError(f"DatasetSpec.echoes must be one of {', '.join(ECHO_MODES)}, "
+                             f"got {self.echoes!r}")
         if self.trajectory is not None:
             object.__setattr__(self, "trajectory", tuple(map(tuple, np.asarray(self.trajectory, float))))
 
@@ -103,6 +111,11 @@ class DatasetSpec:
         data = dict(data)
         data["odometry"] = OdometryDrift(**data["odometry"])
         return cls(**data)
+
+    def sonar_config(self) -> SonarConfig:
+        """The sonar's configuration: ``sonar_preset``, recording ``echoes``."""
+        config = SonarConfig.preset(self.sonar_preset)
+        return replace(config, detection=replace(config.detection, echoes=self.echoes))
 
     def build_trajectory(self) -> Trajectory:
         if self.trajectory is None:
@@ -128,7 +141,7 @@ class _Renderer:
 
     def __init__(self, spec: DatasetSpec):
         self.spec = spec
-        self.sonar = Sonar(spec.scene, SonarConfig.preset(spec.sonar_preset))
+        self.sonar = Sonar(spec.scene, spec.sonar_config())
         self.camera = CameraRenderer(self.sonar.scene,
                                      CameraModel(spp=spec.spp).at_resolution(spec.image_width))
         self.times, self.truth, self.odometry = spec.timeline()
@@ -204,7 +217,7 @@ def _worker_render(spec_json: dict, out: str, index: int) -> int:
 
 def _metadata(spec: DatasetSpec, renderer: "_Renderer | None" = None) -> dict:
     times, truth, odometry = spec.timeline()
-    cfg = SonarConfig.preset(spec.sonar_preset)
+    cfg = spec.sonar_config()
     cam = CameraModel(spp=spec.spp).at_resolution(spec.image_width)
     g = cfg.geometry
     from mitsonar.frames import Pose

@@ -3,28 +3,41 @@
 Every sample k gives, at its time t_k [s] on the trajectory's clock: the robot's frames
 (``/tf``), its drifting odometry (``/odom``, twist from the odometry poses' differences) and
 ground truth (``/ground_truth/pose``), the camera's sRGB image (the pixels of ``rgb.png``), its
-z-depth and calibration, one ``/sonar/detections`` cloud with the scan's detected beams and one
-``/sonar/echoes`` message per beam. The dataset renders a sample's scan from one pose at one
-instant, so all its beams carry the sample's time. The fixed frames (``/tf_static``) come from
-the dataset's calibration. Every file is verified against its sample's manifest first; a
-missing, truncated or corrupt file stops the export with a
+z-depth and calibration, one ``/sonar/detections`` cloud with every echo of the scan (the rows of
+the echo table in ``echoes.npz``, with their attributes) and one ``/sonar/echoes`` message per
+beam. The dataset renders a sample's scan from one pose at one instant, so all its beams carry
+the sample's time. The fixed frames (``/tf_static``) come from the dataset's calibration. Every
+file is verified against its sample's manifest first; a missing, truncated or corrupt file (or a
+sample without an echo table) stops the export with a
 :class:`~mitsonar.data.dataset.DatasetError` naming it, and no MCAP file is written.
 """
 
 from __future__ import annotations
 
+from dataclasses import fields
+
 import numpy as np
 
-from mitsonar.data.dataset import open_dataset
+from mitsonar.data.dataset import DatasetError, open_dataset
 from mitsonar.data.mcap_recorder import PULSE_CODE, record
 from mitsonar.data.ros_frames import body_twist
 from mitsonar.frames import Pose
 from mitsonar.sensors.camera import srgb8
+from mitsonar.signal.detection import Echoes
 
 
 def _pose(matrix) -> Pose:
     m = np.asarray(matrix, dtype=float)
     return Pose(m[:3, :3], m[:3, 3])
+
+
+def echo_table(arrays: dict, source: str) -> Echoes:
+    """The echo table of a sample's ``echoes.npz`` arrays (its ``echo_`` columns);
+    :class:`~mitsonar.data.dataset.DatasetError` naming ``source`` if it has none."""
+    if "echo_beam" not in arrays:
+        raise DatasetError(f"{source}: no echo table (rendered before datasets recorded every "
+                           f"echo); render the dataset again")
+    return Echoes(**{f.name: arrays["echo_" + f.name] for f in fields(Echoes)})
 
 
 def export_dataset(path, out, progress=None) -> dict:
@@ -50,9 +63,8 @@ def export_dataset(path, out, progress=None) -> dict:
                             depth=sample.depth.reshape(sample.depth.shape[:2]))
             e = sample.echoes
             detected = np.asarray(e["detected"], dtype=bool)
-            beams = np.nonzero(detected)[0]
-            recorder.detections(t, e["points_sensor"][beams], e["amplitude"][beams], beams,
-                                np.full(len(beams), PULSE_CODE))
+            recorder.detections(t, echo_table(e, f"{ds.path}/samples/{k:06d}/echoes.npz"),
+                                PULSE_CODE)
             for b in range(len(detected)):
                 recorder.echoes(t, beam=b, code=PULSE_CODE, direction=e["directions"][b],
                                 channel_positions=channels, echoes=e["echoes"][b],

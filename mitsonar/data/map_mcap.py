@@ -1,14 +1,14 @@
 """MCAP recordings of map runs (``mitsonar map repeated|surfel ... --record FILE.mcap``).
 
 A run is recorded on its simulated clock (the trajectory's time [s]): each camera image at the
-time it was taken, each sonar detection at its beam's firing time, in ``sonar_optical`` (an
-OFDM frame's beams fire one slot apart while the robot moves: one ``/sonar/detections`` cloud
-per beam, empty when the beam detected nothing; a surfel run pings from a pose that the robot
-holds: one cloud per scan, at the pose's time), and the final map (``/map``, world frame) at the
-end. The robot's frames (``/tf``) are written at every one of these times and at the wheel
-odometry's rate, so that a viewer places every detection with its beam's exact pose. Map
-recordings carry no per-channel echoes (an OFDM cycle records all its beams together;
-``mitsonar dataset export`` has them).
+time it was taken, each sonar echo (every row of the echo table, with its attributes) at its
+beam's firing time, in ``sonar_optical`` (an OFDM frame's beams fire one slot apart while the
+robot moves: one ``/sonar/detections`` cloud per beam, empty when the beam detected nothing; a
+surfel run pings from a pose that the robot holds: one cloud per scan, at the pose's time), and
+the final map (``/map``, world frame) at the end. The robot's frames (``/tf``) are written at
+every one of these times and at the wheel odometry's rate, so that a viewer places every
+detection with its beam's exact pose. Map recordings carry no per-channel echoes (an OFDM cycle
+records all its beams together; ``mitsonar dataset export`` has them).
 
 Odometry: the ground truth sampled every :data:`ODOMETRY_PERIOD` along the trajectory, with the
 drift of :class:`~mitsonar.sensors.trajectory.OdometryDrift` (seeded by the run's seed), and
@@ -16,6 +16,8 @@ interpolated linearly between its samples for the frames at other times.
 """
 
 from __future__ import annotations
+
+from dataclasses import replace
 
 import numpy as np
 
@@ -67,10 +69,9 @@ def record_repeated(path, scanned, voxels, trajectory: Trajectory, seed: int = 0
         frame = s.frame
         recorder.camera(frame.start_time, camera.intrinsics(), srgb8(s.image), "rgb8")
         fired = frame.start_time + frame.schedule.transmit_time
+        table = frame.echo_table
         for b, t in enumerate(fired):
-            beam = [b] if frame.detected[b] else []
-            recorder.detections(t, frame.points_sensor[beam], frame.amplitude[beam], beam,
-                                frame.schedule.code_index[beam])
+            recorder.detections(t, table.take(table.beam == b), frame.schedule.code_index[b])
         stamps += [frame.start_time, *fired]
     end = max(stamps)
     RunTimeline(trajectory, end, seed).record(recorder, stamps)
@@ -97,12 +98,12 @@ class SurfelRunRecording:
         self._fired = np.zeros(len(self.times), dtype=int)  # beams fired so far at each pose
 
     def _detections(self, k: int, scan) -> None:
-        """Log a scan fired from pose ``k``: its detections at the pose's time."""
-        beams = self._fired[k] + np.nonzero(scan.detected)[0]
+        """Log a scan fired from pose ``k``: its echoes at the pose's time, each beam numbered
+        among every beam fired from that pose."""
+        table = scan.echo_table
+        self.recorder.detections(self.times[k], replace(table, beam=self._fired[k] + table.beam),
+                                 PULSE_CODE)
         self._fired[k] += len(scan.detected)
-        self.recorder.detections(self.times[k], scan.points_sensor[scan.detected],
-                                 scan.amplitude[scan.detected], beams,
-                                 np.full(len(beams), PULSE_CODE))
 
     def save(self, path, surfel_map, points, plane) -> dict:
         """Add each pose's image and the final map (``points`` (M, 3) [m] sampled on it and

@@ -3,8 +3,9 @@
 Topics (:data:`TOPICS`): the frame tree on ``/tf_static`` and ``/tf``
 (:mod:`mitsonar.data.ros_frames`), the drifting wheel odometry on ``/odom`` beside the ground
 truth on ``/ground_truth/pose``, the camera's images and calibration, the sonar's detections
-(``PointCloud2``, fields x, y, z [m], amplitude [Pa], beam, code) and per-channel echoes
-(``mitsonar_msgs/SonarEchoes``), and a map's final point cloud. Every message is logged at its
+(``PointCloud2``: every echo, with fields x, y, z [m], amplitude [Pa], beam, code, rank, snr,
+arrival direction and coherence) and per-channel echoes (``mitsonar_msgs/SonarEchoes``), and a
+map's final point cloud. Every message is logged at its
 simulated time (its header's stamp). Files are written atomically: a failed or interrupted
 recording leaves no file behind.
 """
@@ -22,6 +23,7 @@ from mitsonar.data.ros_frames import (BASE_LINK, CAMERA_OPTICAL, ODOM, SONAR_OPT
                                       robot_transforms, static_transforms)
 from mitsonar.data.ros_schemas import definition, schema_name
 from mitsonar.frames import Pose
+from mitsonar.signal.detection import Echoes
 
 #: Topic -> message type.
 TOPICS = {
@@ -112,14 +114,22 @@ class McapRecorder:
             self.write("/camera/depth", t,
                        msg.image(t, CAMERA_OPTICAL, np.asarray(depth, np.float32), "32FC1"))
 
-    def detections(self, t: float, points_sensor, amplitude, beam, code) -> None:
-        """``/sonar/detections``: points (N, 3) [m] in ``sonar_optical``, amplitude (N,) [Pa],
-        beam index (N,) and OFDM code (N,; :data:`PULSE_CODE` for pulses)."""
-        points = np.asarray(points_sensor, dtype=np.float32).reshape(-1, 3)
+    def detections(self, t: float, echoes: Echoes, code) -> None:
+        """``/sonar/detections``: every echo of ``echoes`` (points in ``sonar_optical``), one
+        point each with its amplitude [Pa], beam index, rank in its beam, SNR, unit arrival
+        direction, coherence and OFDM code (``code``: (E,) or one for all;
+        :data:`PULSE_CODE` for pulses)."""
+        points = np.asarray(echoes.point, dtype=np.float32).reshape(-1, 3)
+        arrival = np.asarray(echoes.direction, dtype=np.float32).reshape(-1, 3)
         self.write("/sonar/detections", t, msg.point_cloud(t, SONAR_OPTICAL, {
             "x": points[:, 0], "y": points[:, 1], "z": points[:, 2],
-            "amplitude": np.asarray(amplitude, np.float32), "beam": np.asarray(beam, np.uint32),
-            "code": np.asarray(code, np.int32)}))
+            "amplitude": np.asarray(echoes.amplitude, np.float32),
+            "beam": np.asarray(echoes.beam, np.uint32),
+            "code": np.broadcast_to(np.asarray(code, np.int32), (len(points),)),
+            "rank": np.asarray(echoes.rank, np.uint32),
+            "snr": np.asarray(echoes.snr, np.float32),
+            "arrival_x": arrival[:, 0], "arrival_y": arrival[:, 1], "arrival_z": arrival[:, 2],
+            "coherence": np.asarray(echoes.coherence, np.float32)}))
 
     def echoes(self, t: float, **beam) -> None:
         """``/sonar/echoes``: one beam's echoes (keywords of

@@ -8,11 +8,17 @@ rate, 43 Hz, which wheel odometry exceeds). The paper registers a whole frame wi
 odometry pose q_i of its start (``registration="frame"``, also when its image is taken), so a
 moving robot smears surfaces (the paper's Fig. 8b failure case; ``experiments/ofdm_motion.py``
 measures it).
+
+Echoes. Every echo each beam reports is a point (``echoes``, ``DetectionSettings.echoes``):
+"cells" (default) every echo over the range profile and every range cell across extended echoes,
+each at the arrival direction the receive array measures for it; "all" the echoes only; "first"
+the strongest of each beam, one point per beam as the paper. ``experiments/imaging.py`` compares
+them (docs/imaging.md).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -21,6 +27,7 @@ from mitsonar.frames import Pose
 from mitsonar.sensors.ofdm_sonar import Frame, OfdmSonar, pose_along
 from mitsonar.sensors.sonar import Sonar
 from mitsonar.sensors.trajectory import Trajectory
+from mitsonar.signal.detection import ECHO_MODES
 from mitsonar.validation import check_positive
 from mitsonar.recon.voxelmap import VoxelMap, VoxelMapSettings, colourise
 
@@ -47,6 +54,8 @@ class RepeatedMapSpec:
         voxels: voxel size, outlier removal.
         registration: "beam" (each beam's pose at firing) or "frame" (one odometry pose per
             frame, as the paper).
+        echoes: the echoes of each beam that become points (``DetectionSettings.echoes``:
+            "first", "all" or "cells"; module docstring); it replaces the sonar's own setting.
         seed: seeds every frame's noise and diffuse phases.
     """
 
@@ -58,6 +67,7 @@ class RepeatedMapSpec:
     spp: int = 8
     voxels: VoxelMapSettings = VoxelMapSettings()
     registration: str = "beam"
+    echoes: str = "cells"
     seed: int = 0
 
     def __post_init__(self):
@@ -71,6 +81,9 @@ class RepeatedMapSpec:
         if self.registration not in REGISTRATIONS:
             raise ValueError(f"RepeatedMapSpec.registration must be one of {REGISTRATIONS}, got "
                              f"{self.registration!r}")
+        if self.echoes not in ECHO_MODES:
+            raise ValueError(f"RepeatedMapSpec.echoes must be one of {', '.join(ECHO_MODES)}, "
+                             f"got {self.echoes!r}")
 
 
 @dataclass(frozen=True)
@@ -94,7 +107,8 @@ def scan_repeated(sonar: Sonar, trajectory: Trajectory, spec: RepeatedMapSpec = 
     with an image each: ``spec.frames`` of them, or every frame that starts within the first
     ``spec.duration`` [s] (default: the whole trajectory). ``progress`` is called with (frame
     index, number of frames) after each."""
-    ofdm = OfdmSonar(sonar)
+    detection = replace(sonar.config.detection, echoes=spec.echoes)
+    ofdm = OfdmSonar(Sonar(sonar.scene, replace(sonar.config, detection=detection)))
     schedule = ofdm.schedule(sonar.fov_grid(spec.scan_step))
     interval = schedule.frame_duration if spec.interval is None else spec.interval
     if interval < schedule.frame_duration:
@@ -116,11 +130,13 @@ def scan_repeated(sonar: Sonar, trajectory: Trajectory, spec: RepeatedMapSpec = 
 
 
 def build_voxel_map(scanned, camera_model: CameraModel, spec: RepeatedMapSpec = RepeatedMapSpec()):
-    """Colour, register (``spec.registration``) and voxelise scanned frames -> VoxelCloud."""
+    """Colour, register (``spec.registration``) and voxelise every echo of scanned frames ->
+    VoxelCloud."""
     voxel_map = VoxelMap()
     for s in scanned:
-        poses = s.frame.world_from_sensor if spec.registration == "beam" else s.pose.matrix()
-        voxel_map.add_frame(colourise(s.frame.points_sensor, poses, s.image, camera_model,
+        frame = s.frame
+        poses = frame.echo_world_from_sensor if spec.registration == "beam" else s.pose.matrix()
+        voxel_map.add_frame(colourise(frame.echo_table.point, poses, s.image, camera_model,
                                       s.pose.matrix()))
     return voxel_map.voxelise(spec.voxels)
 

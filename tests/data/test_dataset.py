@@ -54,6 +54,11 @@ def test_write_read_round_trip_is_exact(reference):
     assert np.array_equal(sample.shape_index, images.shape_index)
     assert np.array_equal(sample.echoes["echoes"], scan.echoes)
     assert np.array_equal(sample.echoes["depth"], scan.depth, equal_nan=True)
+    assert renderer.sonar.config.detection.echoes == SPEC.echoes == "all"
+    table = scan.echo_table.arrays("echo_")  # every echo, with its attributes
+    assert len(table["echo_beam"]) >= scan.detected.sum() > 0
+    for name, value in table.items():
+        assert np.array_equal(sample.echoes[name], value, equal_nan=value.dtype.kind == "f")
     np.testing.assert_allclose(np.array(pose["world_from_sensor_truth"]), sensor.matrix())
     calib = ds.meta["calibration"]
     assert calib["image_size"] == [24, 18] and len(calib["rx_positions_m"]) == 25

@@ -85,14 +85,21 @@ def test_repeated_run_records_every_beam_at_its_firing_time_and_pose(wall_run, t
     assert counts["/sonar/detections"] == len(fired) and counts["/camera/image"] == 1
     assert frame.detected.sum() >= 3
     by_time = {t: m for t, m in clouds}
+    table = frame.echo_table  # every echo of each beam (RepeatedMapSpec.echoes, "cells")
+    assert len(table) > frame.detected.sum()
     for b, ns in enumerate(fired):
         cloud = cloud_columns(by_time[ns])
-        assert len(cloud["x"]) == frame.detected[b]
+        mine = table.take(table.beam == b)
+        assert len(cloud["x"]) == len(mine) >= frame.detected[b]
         pose = world_from(tf_tree(read, ns), "sonar_optical")
         np.testing.assert_allclose(pose.matrix(), frame.world_from_sensor[b], atol=1e-9)
-        if frame.detected[b]:
-            assert cloud["beam"][0] == b and cloud["code"][0] == frame.schedule.code_index[b]
-            np.testing.assert_array_equal(cloud["x"], np.float32(frame.points_sensor[b, 0]))
+        assert np.all(cloud["beam"] == b) and np.all(cloud["code"] == frame.schedule.code_index[b])
+        np.testing.assert_array_equal(cloud["rank"], mine.rank)
+        for name, column in (("x", mine.point[:, 0]), ("snr", mine.snr),
+                             ("arrival_z", mine.direction[:, 2]), ("coherence", mine.coherence)):
+            np.testing.assert_array_equal(cloud[name], np.float32(column))
+        if frame.detected[b]:  # rank 0: the beam's detection
+            np.testing.assert_array_equal(cloud["x"][0], np.float32(frame.points_sensor[b, 0]))
     assert counts["/odom"] == int(max(fired) / 1e9 / ODOMETRY_PERIOD) + 1
     (last_map,) = [m for topic, _, m in read if topic == "/map"]
     m = cloud_columns(last_map)

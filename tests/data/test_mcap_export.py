@@ -1,5 +1,6 @@
 """MCAP export of a dataset: read back with the MCAP reader, equal to the dataset's files."""
 
+import hashlib
 import json
 import re
 import shutil
@@ -91,10 +92,18 @@ def test_stamps_frames_poses_and_point_clouds_equal_the_dataset(messages, datase
         cloud = cloud_columns(at["/sonar/detections"][0])
         det = e["detected"]
         points = np.stack([cloud["x"], cloud["y"], cloud["z"]], axis=-1)
-        assert np.array_equal(points, e["points_sensor"][det].astype(np.float32))
-        assert np.array_equal(cloud["amplitude"], e["amplitude"][det].astype(np.float32))
-        assert np.array_equal(cloud["beam"], np.nonzero(det)[0])
+        arrival = np.stack([cloud[f"arrival_{a}"] for a in "xyz"], axis=-1)
+        assert np.array_equal(points, e["echo_point"].astype(np.float32))  # every echo
+        assert np.array_equal(arrival, e["echo_direction"].astype(np.float32))
+        for name in ("amplitude", "snr", "coherence"):
+            assert np.array_equal(cloud[name], e[f"echo_{name}"].astype(np.float32),
+                                  equal_nan=True)
+        assert np.array_equal(cloud["beam"], e["echo_beam"])
+        assert np.array_equal(cloud["rank"], e["echo_rank"])
         assert np.all(cloud["code"] == PULSE_CODE)
+        first = cloud["rank"] == 0  # each detected beam's strongest echo: its detection
+        assert np.array_equal(cloud["beam"][first], np.nonzero(det)[0])
+        assert np.array_equal(points[first], e["points_sensor"][det].astype(np.float32))
         echoes = at["/sonar/echoes"]
         assert [m.beam for m in echoes] == list(range(len(det)))
         for b, m in enumerate(echoes):
@@ -128,6 +137,27 @@ def test_truncated_dataset_is_named_and_writes_nothing(dataset, tmp_path, capsys
     (copy / "dataset.json").write_text(json.dumps({"format_version": 1})[:-3])
     assert main(["dataset", "export", str(copy), "--out", str(out)]) == 2
     assert "dataset.json" in capsys.readouterr().err and not out.exists()
+
+
+def test_sample_without_echo_table_is_named_and_writes_nothing(dataset, tmp_path, capsys):
+    """A sample rendered before datasets kept every echo (no ``echo_`` arrays, manifest intact)
+    stops the export with one line naming its file."""
+    copy = tmp_path / "copy"
+    shutil.copytree(dataset, copy)
+    folder = copy / "samples" / "000000"
+    with np.load(folder / "echoes.npz") as data:
+        old = {k: data[k] for k in data.files if not k.startswith("echo_")}
+    with open(folder / "echoes.npz", "wb") as f:
+        np.savez_compressed(f, **old)
+    manifest = json.loads((folder / "manifest.json").read_text())
+    blob = (folder / "echoes.npz").read_bytes()
+    manifest["echoes.npz"] = {"bytes": len(blob), "sha256": hashlib.sha256(blob).hexdigest()}
+    (folder / "manifest.json").write_text(json.dumps(manifest))
+    out = tmp_path / "out" / "dataset.mcap"
+    assert main(["dataset", "export", str(copy), "--out", str(out)]) == 2
+    err = [line for line in capsys.readouterr().err.splitlines() if "error" in line]
+    assert len(err) == 1 and "000000/echoes.npz: no echo table" in err[0]
+    assert not out.exists()
 
 
 def test_foxglove_layout_shows_recorded_topics_and_frames():

@@ -1,0 +1,415 @@
+"""Scanning strategies (issue 28): points per second of driving, their accuracy and the map's
+completeness for the sequential scan, OFDM frames and single-ping receive imaging.
+
+For each scene (office, workshop) and sonar preset (the physical default ``SonarConfig()`` and
+``SonarConfig.preset('paper')``) the robot drives the scene's default trajectory (0.2 m/s, 30
+deg/s on the spot) and the sonar scans at its own rate, every point registered with the pose
+it was measured from (no odometry drift):
+
+* sequential: single-beam pings over the 117-beam 5 deg grid, one listening time
+  (``SonarConfig.record_duration``) apart, each fired from the robot's pose at its own firing
+  time (:meth:`Sonar.scan <mitsonar.sensors.sonar.Sonar.scan>` of one beam); a sweep of the grid
+  is a frame (3.6 s with the paper preset, 4.0 s with the default).
+* OFDM: frames of the 117 coded beams back to back (208.5 ms each, 25 codes per cycle; each beam
+  from its own pose, :class:`~mitsonar.sensors.ofdm_sonar.OfdmSonar`).
+* imaging: single-ping receive images (:class:`~mitsonar.sensors.imaging_sonar.ImagingSonar`,
+  one transmit element), one per listening cycle (30.4 / 34.0 ms).
+
+Echoes. The sequential and OFDM beams are simulated once with ``DetectionSettings.echoes =
+'cells'``, which reports every echo of a beam (its resolved peaks, exactly the rows that
+``echoes = 'all'`` gives) and, after them, the range cells across extended echoes. One
+simulation gives three point sets: ``first`` (each beam's strongest trusted echo, its rank-0
+peak: the beam's ``Detections`` entry with every echo on), ``all`` (every peak) and ``cells``
+(every row).
+
+Scoring, with the comparison's definitions for every sensor (``experiments/comparison.py``):
+each cloud is thinned to one point per 1 cm voxel (``VoxelThinner``, a seeded random point of
+each) and scored by :func:`mitsonar.evaluation.metrics.evaluate` against the scene's mesh:
+``accuracy_pct`` is the share of its points within 2 cm of the mesh, ``completeness_5cm_pct``
+the share of the observable ground-truth samples (1 cm apart, in line of sight of the sensor
+head at least once a second along the drive) with a point within 5 cm. The VLP-16 (10 Hz,
+each column fired at its own time, :func:`mitsonar.sensors.baselines.sweep`) drives the same
+path, whole, and is scored the same way.
+
+``--stride K`` simulates every K-th frame (sweep, OFDM frame or image) of the sensor's schedule
+along the drive, still at the sensor's own times and poses: ``points_per_s`` is the sensor's
+(points per simulated frame x frames per second), while ``completeness_5cm_pct`` counts only
+what was simulated, a lower bound of the whole drive's. ``frames_simulated``, ``frames_total``
+and ``stride`` say which, and ``completeness_5cm_half_pct`` is the completeness of every other
+simulated frame (stride 2K), how much the completeness grows with the frames. ``sim_seconds``
+is the wall-clock time of the simulation (shared by a scan's echo sets).
+
+Writes imaging.csv/.md (a row per scene, preset and strategy) and imaging.png (points per
+second against accuracy and completeness, the VLP-16's completeness and issue 28's goals
+marked). docs/imaging.md shows them (``--stride 20``); unstrided, the chart takes about 6 h on
+2 shared cores.
+
+    .venv/bin/python experiments/imaging.py --stride 20 --out out/imaging
+    .venv/bin/python experiments/imaging.py --quick --out out/imaging    # ~1 min
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+import numpy as np
+
+import mitsonar
+from mitsonar.evaluation.metrics import evaluate, sample_surface, visible_from
+from mitsonar.io import write_table
+from mitsonar.plots import _pyplot, save_png
+from mitsonar.scene.mesh import scene_mesh
+from mitsonar.sensors.baselines import Lidar, sweep
+from mitsonar.sensors.imaging_sonar import ImagingSonar, TransmitSettings
+from mitsonar.sensors.ofdm_sonar import OfdmSonar, pose_along
+from mitsonar.sensors.trajectory import sensor_poses
+
+if str(Path(__file__).resolve().parent) not in sys.path:  # the comparison's definitions
+    sys.path.append(str(Path(__file__).resolve().parent))
+from comparison import THIN_VOXEL, VIEW_PERIOD, VoxelThinner  # noqa: E402
+
+SCENES = Path(__file__).resolve().parents[1] / "scenes"
+SCENE_NAMES = ("office", "workshop")
+PRESETS = ("default", "paper")
+SCANS = ("sequential", "ofdm", "imaging")
+#: Echo sets of one sequential or OFDM simulation (module docstring).
+ECHO_SETS = ("first", "all", "cells")
+#: Accuracy threshold [m] and completeness threshold [m].
+ACCURACY_THRESHOLD = 0.02
+COMPLETENESS_THRESHOLD = 0.05
+#: Issue 28's reference: OFDM frames back to back on office, paper preset, one echo per beam
+#: (43 points per 208.5 ms frame) [points/s], and its goals as multiples of it.
+TODAY_POINTS_PER_S = 208.0
+GOALS = {"paper": (10.0, 0.90), "default": (3.0, 0.70)}
+#: Completeness [%] below which the figure draws it at this value (log scale).
+COMPLETENESS_FLOOR = 0.1
+MARKERS = {"sequential_first": "s", "sequential_all": "D", "sequential_cells": "P",
+           "ofdm_first": "o", "ofdm_all": "^", "ofdm_cells": "v", "imaging": "*"}
+
+
+@dataclass(frozen=True)
+class RunSettings:
+    """How the chart is driven and simulated.
+
+    Attributes:
+        duration: seconds of each trajectory driven; None: all of it.
+        stride: simulate every ``stride``-th frame of each schedule.
+        step: beam grid step of the sequential and OFDM scans [rad].
+        spacing: ground-truth sample spacing [m].
+        rays_per_axis: rays per axis of the physical model's beams (None: ``TraceSettings``'s).
+        image_rays_per_axis: rays per axis of an image's wide transmission (physical model).
+        seed: seeds the sonar, the LiDAR's noise, the samples and the thinning.
+    """
+
+    duration: float | None
+    stride: int
+    step: float
+    spacing: float
+    rays_per_axis: int | None
+    image_rays_per_axis: int
+    seed: int
+
+
+@dataclass
+class Simulated:
+    """What one scan gave along the drive: per echo set (one set, 'image', for imaging) the
+    world points (N_k, 3) [m] of each simulated frame k, the frames of its schedule and those
+    simulated, its frame rate [Hz] and the simulation's wall-clock time [s]."""
+
+    points: dict
+    frame_rate: float
+    frames_total: int
+    frames_simulated: int
+    seconds: float
+
+
+def _seed(*parts) -> int:
+    return int(np.random.SeedSequence([int(p) for p in parts]).generate_state(1)[0])
+
+
+def echo_sets(echoes, points_world) -> dict:
+    """Points (N, 3) [m] per echo set (:data:`ECHO_SETS`) of an echo table simulated with
+    ``echoes = 'cells'`` and its world points (E, 3) [m]."""
+    return {"first": points_world[echoes.peak & (echoes.rank == 0)],
+            "all": points_world[echoes.peak], "cells": points_world}
+
+
+def sonar_for(path: Path, preset: str, settings: RunSettings) -> mitsonar.Sonar:
+    """The scene's sonar with ``preset``, every echo and range cell reported."""
+    config = mitsonar.SonarConfig.preset(preset)
+    trace = config.trace if settings.rays_per_axis is None else \
+        replace(config.trace, rays_per_axis=settings.rays_per_axis)
+    return mitsonar.Sonar(path, replace(config, trace=trace,
+                                        detection=replace(config.detection, echoes="cells")))
+
+
+def sequential_frame(sonar, pose_at, grid, start: float, seed: int) -> dict:
+    """One sweep of single-beam pings over ``grid`` (B, 3) from ``start`` [s], one listening
+    time apart, each from the pose at its firing time; its points per echo set."""
+    period = sonar.config.record_duration
+    sets = []
+    for b, direction in enumerate(grid):  # pings follow each other in time
+        scan = sonar.scan(pose_at(start + b * period), direction[None], seed=_seed(seed, b))
+        sets.append(echo_sets(scan.echo_table, scan.echo_points_world))
+    return {name: np.concatenate([s[name] for s in sets]) for name in ECHO_SETS}
+
+
+def simulate(scan: str, sonar, trajectory, settings: RunSettings, progress) -> Simulated:
+    """Drive ``trajectory`` scanning with ``scan`` (:data:`SCANS`) at its own rate, every
+    ``settings.stride``-th frame simulated; ``progress`` is called after each with (done,
+    total)."""
+    pose_at = pose_along(trajectory)
+    grid = sonar.fov_grid(settings.step)
+    if scan == "sequential":
+        period = len(grid) * sonar.config.record_duration
+
+        def frame(t, k):
+            return sequential_frame(sonar, pose_at, grid, t, _seed(settings.seed, k))
+    elif scan == "ofdm":
+        ofdm = OfdmSonar(sonar)
+        schedule = ofdm.schedule(grid)
+        period = schedule.frame_duration
+
+        def frame(t, k):
+            result = ofdm.frame(schedule, pose_at, start_time=t, seed=_seed(settings.seed, k))
+            return echo_sets(result.echo_table, result.echo_points_world)
+    else:
+        imaging = ImagingSonar(sonar, transmit=TransmitSettings(
+            rays_per_axis=settings.image_rays_per_axis))
+        period = imaging.cycle_time
+
+        def frame(t, k):
+            return {"image": imaging.image(pose_at(t), seed=_seed(settings.seed, k)).points_world}
+    times = trajectory.times_at_rate(1.0 / period, settings.duration)
+    chosen = np.arange(0, len(times), settings.stride)
+    start = time.perf_counter()
+    clouds = []
+    for done, k in enumerate(chosen):  # frames follow each other in time
+        clouds.append(frame(float(times[k]), k))
+        progress(done + 1, len(chosen))
+    points = {name: [c[name] for c in clouds] for name in clouds[0]}
+    return Simulated(points, 1.0 / period, len(times), len(chosen), time.perf_counter() - start)
+
+
+@dataclass(frozen=True)
+class Truth:
+    """What every cloud of a scene is scored against: the mesh, the samples and which of them
+    are observable along the drive."""
+
+    mesh: object
+    samples: object
+    observable: np.ndarray
+
+
+def score(points, truth: Truth, seed: int) -> tuple[float, float, int]:
+    """(accuracy within 2 cm, completeness within 5 cm, thinned points) of world points (N, 3)
+    [m], thinned to one per 1 cm voxel as the comparison does."""
+    thinner = VoxelThinner(THIN_VOXEL, seed=seed)
+    thinner.add(points)
+    thinned = thinner.result()
+    scores = {t: evaluate(thinned, truth.mesh, threshold=t, samples=truth.samples,
+                          observable=truth.observable).overall
+              for t in (ACCURACY_THRESHOLD, COMPLETENESS_THRESHOLD)}
+    return (scores[ACCURACY_THRESHOLD].accuracy, scores[COMPLETENESS_THRESHOLD].completeness,
+            len(thinned))
+
+
+def scene_truth(scene, trajectory, settings: RunSettings) -> Truth:
+    mesh = scene_mesh(scene)
+    samples = sample_surface(mesh, settings.spacing, settings.seed)
+    driven = trajectory.driven(settings.duration)
+    views = sensor_poses(trajectory.poses_at(np.arange(0.0, driven + 1e-9, VIEW_PERIOD)))
+    return Truth(mesh, samples, visible_from(scene, samples.points,
+                                             np.array([p.translation for p in views])))
+
+
+def lidar_completeness(scene, trajectory, truth: Truth, settings: RunSettings, bar) -> float:
+    """Completeness within 5 cm of the VLP-16 driving the same path at 10 Hz."""
+    thinner = VoxelThinner(THIN_VOXEL, seed=settings.seed)
+    lidar = Lidar(scene)
+    bar.reset(total=len(trajectory.times_at_rate(lidar.model.rate, settings.duration)))
+    for _, points in sweep(lidar, trajectory, settings.duration, settings.seed):
+        thinner.add(points)
+        bar.update()
+    return evaluate(thinner.result(), truth.mesh, threshold=COMPLETENESS_THRESHOLD,
+                    samples=truth.samples, observable=truth.observable).overall.completeness
+
+
+def run_scene(name: str, presets, scans, settings: RunSettings) -> list[dict]:
+    """The chart's rows of one scene."""
+    from tqdm import tqdm
+
+    path = SCENES / name / "scene.xml"
+    trajectory = mitsonar.Trajectory.from_scene(path)
+    driven = trajectory.driven(settings.duration)
+    rows = []
+    with tqdm(desc=f"{name}", unit="frame", file=sys.stderr) as bar:
+        sonars = {preset: sonar_for(path, preset, settings) for preset in presets}
+        scene = next(iter(sonars.values())).scene
+        bar.set_description(f"{name}: ground truth")
+        truth = scene_truth(scene, trajectory, settings)
+        bar.set_description(f"{name}: VLP-16 at 10 Hz")
+        lidar = lidar_completeness(scene, trajectory, truth, settings, bar)
+        print(f"{name}: VLP-16 completeness within 5 cm {100 * lidar:.1f} % "
+              f"({driven:.1f} s driven)", file=sys.stderr)
+        for preset, sonar in sonars.items():
+            for scan in scans:
+                bar.set_description(f"{name} {preset}: {scan} (stride {settings.stride})")
+
+                def step(done, total):
+                    bar.total = total
+                    bar.update(done - bar.n)
+
+                bar.reset()
+                sim = simulate(scan, sonar, trajectory, settings, step)
+                for echoes, frames in sim.points.items():
+                    points = np.concatenate(frames)
+                    accuracy, completeness, thinned = score(points, truth, settings.seed)
+                    half = score(np.concatenate(frames[::2]), truth, settings.seed)[1]
+                    strategy = scan if echoes == "image" else f"{scan}_{echoes}"
+                    per_frame = len(points) / sim.frames_simulated
+                    rows.append({
+                        "scene": name, "strategy": strategy, "preset": preset, "scan": scan,
+                        "echoes": echoes, "frame_rate_hz": sim.frame_rate,
+                        "points_per_frame": per_frame,
+                        "points_per_s": per_frame * sim.frame_rate,
+                        "points_per_s_vs_today":
+                            per_frame * sim.frame_rate / TODAY_POINTS_PER_S,
+                        "accuracy_pct": 100 * accuracy,
+                        "completeness_5cm_pct": 100 * completeness,
+                        "completeness_5cm_half_pct": 100 * half,
+                        "vlp16_completeness_5cm_pct": 100 * lidar,
+                        "completeness_vs_vlp16": completeness / lidar,
+                        "points": len(points), "thinned_points": thinned,
+                        "frames_simulated": sim.frames_simulated,
+                        "frames_total": sim.frames_total, "stride": settings.stride,
+                        "driven_s": driven, "sim_seconds": sim.seconds,
+                        "sim_seconds_per_frame": sim.seconds / sim.frames_simulated})
+                    print(f"{name} {preset} {strategy}: {per_frame:.1f} points/frame, "
+                          f"{per_frame * sim.frame_rate:.0f} points/s, {100 * accuracy:.1f} % "
+                          f"within 2 cm, completeness {100 * completeness:.1f} % (5 cm), "
+                          f"{sim.seconds / sim.frames_simulated:.2f} s/frame", file=sys.stderr)
+    return rows
+
+
+def markdown(rows) -> list[str]:
+    """The chart as a Markdown table (fractions in %)."""
+    md = ["| scene | preset | strategy | frames/s | frames simulated | points/frame | points/s | "
+          "x today | within 2 cm % | completeness 5 cm % | VLP-16 5 cm % | sim s/frame |",
+          "|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
+    md += [f"| {r['scene']} | {r['preset']} | {r['strategy']} | {r['frame_rate_hz']:.2f} | "
+           f"{r['frames_simulated']} of {r['frames_total']} | {r['points_per_frame']:.1f} | "
+           f"{r['points_per_s']:.0f} | {r['points_per_s_vs_today']:.2f} | "
+           f"{r['accuracy_pct']:.1f} | {r['completeness_5cm_pct']:.1f} | "
+           f"{r['vlp16_completeness_5cm_pct']:.1f} | {r['sim_seconds_per_frame']:.2f} |"
+           for r in rows]
+    return md
+
+
+def save_figure(path: Path, rows) -> None:
+    """Points per second against accuracy (top) and completeness (bottom, log scale; values under
+    ``COMPLETENESS_FLOOR`` drawn at it), a column per scene: filled markers the paper preset, open
+    ones the default; issue 28's reference and goals dashed, the VLP-16's completeness and half of
+    it (the goal) in black."""
+    plt = _pyplot()
+    scenes = list(dict.fromkeys(r["scene"] for r in rows))
+    fig, axes = plt.subplots(2, len(scenes), figsize=(6.5 * len(scenes), 9.5), squeeze=False)
+    for col, scene in enumerate(scenes):
+        mine = [r for r in rows if r["scene"] == scene]
+        top, bottom = axes[0, col], axes[1, col]
+        for r in mine:
+            style = dict(marker=MARKERS[r["strategy"]], s=70, color="C0" if r["preset"] == "paper"
+                         else "C1", facecolors="none" if r["preset"] == "default" else None)
+            x = max(r["points_per_s"], 1.0)
+            top.scatter(x, r["accuracy_pct"], **style)
+            bottom.scatter(x, max(r["completeness_5cm_pct"], COMPLETENESS_FLOOR), **style)
+        lidar = mine[0]["vlp16_completeness_5cm_pct"]
+        bottom.axhline(lidar, color="k", lw=1.2, label=f"VLP-16 at 10 Hz ({lidar:.1f} %)")
+        bottom.axhline(lidar / 2, color="k", lw=1, ls=":", label="half the VLP-16's (goal)")
+        for ax in (top, bottom):
+            ax.axvline(TODAY_POINTS_PER_S, color="grey", ls=":", lw=1)
+        top.plot([], [], color="grey", ls=":", lw=1,
+                 label=f"issue 28's today: {TODAY_POINTS_PER_S:.0f} points/s (office, paper)")
+        for preset, (times, accuracy) in GOALS.items():
+            colour = "C0" if preset == "paper" else "C1"
+            for ax in (top, bottom):
+                ax.axvline(times * TODAY_POINTS_PER_S, color=colour, ls="--", lw=1)
+            top.axhline(100 * accuracy, color=colour, ls="--", lw=1,
+                        label=f"{preset} goal: {times:g}x today, "
+                              f"{100 * accuracy:.0f} % within 2 cm")
+        for ax, label in ((top, "points within 2 cm [%]"),
+                          (bottom, "completeness within 5 cm [%], simulated frames")):
+            ax.set_xscale("log")
+            ax.set_xlabel("points per second of driving")
+            ax.set_ylabel(label)
+            ax.grid(True, which="both", lw=0.3, alpha=0.5)
+        top.set_ylim(40, 101)
+        bottom.set_yscale("log")
+        bottom.set_ylim(COMPLETENESS_FLOOR / 1.5, 100)
+        top.set_title(f"{scene}: 1 frame in {mine[0]['stride']} simulated")
+        top.legend(loc="lower left", fontsize=8)
+        bottom.legend(loc="center left", fontsize=8)
+    handles = [plt.Line2D([], [], marker=m, ls="", color="grey", label=s.replace("_", ", "))
+               for s, m in MARKERS.items()]
+    handles += [plt.Line2D([], [], marker="o", ls="", color=c, label=p, markerfacecolor=f)
+                for p, c, f in (("paper", "C0", "C0"), ("default", "C1", "none"))]
+    fig.legend(handles=handles, loc="lower center", ncol=5, fontsize=8)
+    fig.tight_layout(rect=(0, 0.06, 1, 1))
+    save_png(fig, path)
+
+
+def _subset(text: str, known, option: str) -> list[str]:
+    names = text.split(",")
+    unknown = sorted(set(names) - set(known))
+    if unknown:
+        raise ValueError(f"{option}: unknown {', '.join(unknown)}; known: {', '.join(known)}")
+    return names
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--out", type=Path, default=Path("out/imaging"))
+    choices = {"scenes": SCENE_NAMES, "presets": PRESETS, "scans": SCANS}
+    for option, known in choices.items():
+        parser.add_argument(f"--{option}", default=",".join(known),
+                            help=f"comma separated subset of {', '.join(known)} (default: all)")
+    parser.add_argument("--duration", type=float, default=None,
+                        help="drive only the first DURATION seconds (default: the whole "
+                             "trajectory)")
+    parser.add_argument("--stride", type=int, default=1,
+                        help="simulate every K-th frame of each sensor's schedule (default 1)")
+    parser.add_argument("--step", type=float, default=5.0,
+                        help="beam grid step of the sequential and OFDM scans [deg] (default 5)")
+    parser.add_argument("--spacing", type=float, default=0.01,
+                        help="ground-truth sample spacing [m] (default 0.01)")
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--quick", action="store_true",
+                        help="office, 0.3 s of driving, 20 deg grid, 16 rays per axis per beam "
+                             "and 32 per image, 5 cm ground truth (for the test suite)")
+    args = parser.parse_args(argv)
+    scenes, presets, scans = (_subset(getattr(args, option), known, f"--{option}")
+                              for option, known in choices.items())
+    if args.stride < 1:
+        raise ValueError(f"--stride must be >= 1, got {args.stride}")
+    settings = RunSettings(args.duration, args.stride, np.radians(args.step), args.spacing, None,
+                           TransmitSettings.rays_per_axis, args.seed)
+    if args.quick:
+        scenes = ["office"]
+        settings = replace(settings, duration=0.3, step=np.radians(20.0), spacing=0.05,
+                           rays_per_axis=16, image_rays_per_axis=32)
+    rows = [row for name in scenes for row in run_scene(name, presets, scans, settings)]
+    args.out.mkdir(parents=True, exist_ok=True)
+    md = markdown(rows)
+    write_table(args.out / "imaging.csv", rows, md)
+    save_figure(args.out / "imaging.png", rows)
+    print("\n".join(md))
+    print(f"Wrote {args.out}/imaging.csv, imaging.md and imaging.png")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
