@@ -68,7 +68,8 @@ def wall_run(scene_file):
     broadband = SonarConfig(transducer=Transducer(bandwidth_6db=20e3))
     sonar = Sonar(scene_file("wall", material_xml("w", preset="concrete"), wall, light), broadband)
     trajectory = Trajectory(np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]]), speed=0.5)
-    spec = RepeatedMapSpec(frames=1, scan_step=np.radians(20), image_width=32, spp=1)
+    spec = RepeatedMapSpec(frames=1, scan_step=np.radians(20), image_width=32, spp=1,
+                           echoes="cells")
     voxels, _, frames = map_repeated(sonar, trajectory, spec)
     return voxels, frames, trajectory
 
