@@ -41,11 +41,11 @@ is the wall-clock time of the simulation (shared by a scan's echo sets).
 
 Writes imaging.csv/.md (a row per scene, preset and strategy) and imaging.png (points per
 second against accuracy and completeness, the VLP-16's completeness and issue 28's goals
-marked). docs/imaging.md shows them (``--stride 20``); unstrided, the chart takes about 6 h on
-2 shared cores.
+marked). docs/imaging.md shows them (``--stride 20``: 22 min on 2 shared cores, 13 of them
+simulating the sonar; unstrided, the sonar would take about 4 h).
 
     .venv/bin/python experiments/imaging.py --stride 20 --out out/imaging
-    .venv/bin/python experiments/imaging.py --quick --out out/imaging    # ~1 min
+    .venv/bin/python experiments/imaging.py --quick --out out/imaging    # ~30 s
 """
 
 from __future__ import annotations

@@ -62,7 +62,7 @@ def test_run_timeline_drifts_and_its_frames_give_the_truth_at_every_stamp(tmp_pa
 
 @pytest.fixture
 def wall_run(scene_file):
-    """One OFDM frame of 9 beams on a wall, driving at 0.5 m/s."""
+    """One OFDM frame of 9 beams on a wall, driving at 0.5 m/s, every echo and range cell."""
     wall = rectangle_xml("w", (2.1, 0.0, 0.5), (0, -90, 0), size=(10, 10))
     light = '<emitter type="constant"><rgb name="radiance" value="1"/></emitter>'
     broadband = SonarConfig(transducer=Transducer(bandwidth_6db=20e3))
@@ -86,7 +86,7 @@ def test_repeated_run_records_every_beam_at_its_firing_time_and_pose(wall_run, t
     assert counts["/sonar/detections"] == len(fired) and counts["/camera/image"] == 1
     assert frame.detected.sum() >= 3
     by_time = {t: m for t, m in clouds}
-    table = frame.echo_table  # every echo of each beam (RepeatedMapSpec.echoes, "cells")
+    table = frame.echo_table  # every echo of each beam
     assert len(table) > frame.detected.sum()
     for b, ns in enumerate(fired):
         cloud = cloud_columns(by_time[ns])
