@@ -204,9 +204,7 @@ class ReceiveImager:
         processor = EchoProcessor(geometry, band, speed_of_sound, detection, noise_rms)
         #: RMS of the image of receiver noise alone [Pa].
         self.noise_level = processor.noise_envelope_rms()
-        system = band.system_spectrum()
-        energy = float(np.sum(np.abs(system) ** 2)) / band.n_fft  # as the receiver's filter
-        self._filter = np.conj(system[band.bins]) / energy
+        self._filter = processor.matched_filter()[0]
         self.threshold = max(settings.detection_snr * self.noise_level, settings.detection_floor)
         if self.threshold <= 0:
             raise ValueError("imaging without receiver noise needs ImagingSettings."

@@ -107,7 +107,7 @@ class EchoProcessor:
         self._profiles = {}
         self._crosstalks = {}
 
-    def _matched_filter(self, waveform=None):
+    def matched_filter(self, waveform=None):
         """(filter spectrum on the band (nb,), template energy) of a waveform: conj(W) / E,
         E = sum |w_a|^2 over the samples of a real recording at the reference rate."""
         key = self.band.pulse if waveform is None else waveform
@@ -127,7 +127,7 @@ class EchoProcessor:
 
     def noise_envelope_rms(self, waveform=None) -> float:
         """RMS of the beamformed matched-filter envelope of receiver noise alone [Pa]."""
-        energy = self._matched_filter(waveform)[1]
+        energy = self.matched_filter(waveform)[1]
         return 2.0 * self.noise_rms / np.sqrt(energy * self.geometry.rx.count)
 
     def _envelopes(self, beamformed: np.ndarray, filters: np.ndarray, n: int) -> np.ndarray:
@@ -139,7 +139,7 @@ class EchoProcessor:
         """Envelope (N,) [Pa] of the beamformed, matched-filtered recording."""
         beamformed = self.beamformer.beamformed(self.band.band_spectra(recording.samples),
                                                 np.reshape(direction, (1, 3)))
-        return self._envelopes(beamformed, self._matched_filter(waveform)[0][None],
+        return self._envelopes(beamformed, self.matched_filter(waveform)[0][None],
                                recording.samples.shape[-1])[0]
 
     def noiseless_envelopes(self, spectra: np.ndarray, directions, waveforms=None) -> np.ndarray:
@@ -338,7 +338,7 @@ class EchoProcessor:
             band = self.band
             # An echo of kind b, decoded for kind a, delayed by S samples (lag -S at sample 0).
             delay = np.exp(-2j * np.pi * band.frequencies * span / band.sample_rate)
-            spectra = np.stack([band.system_spectrum(b)[band.bins] * self._matched_filter(a)[0]
+            spectra = np.stack([band.system_spectrum(b)[band.bins] * self.matched_filter(a)[0]
                                 for a, b in missing]) * delay
             lobes = np.abs(band.to_analytic(spectra)[:, : 2 * span + 1])
             self._crosstalks.update(((a, b, span), x) for (a, b), x in zip(missing, lobes))
@@ -509,7 +509,7 @@ class _Waveforms:
         else:
             kinds, self.kind = _distinct([pulse if w is None else w for w in waveforms])
         self.kinds = kinds
-        self.filters = np.stack([processor._matched_filter(w)[0] for w in kinds])
+        self.filters = np.stack([processor.matched_filter(w)[0] for w in kinds])
         self.noise = np.array([processor.noise_envelope_rms(w) for w in kinds])
         parts = [tuple(getattr(w, "parts", ())) for w in kinds]
         looks = [p or (w,) for p, w in zip(parts, kinds)]
@@ -519,7 +519,7 @@ class _Waveforms:
             table[k, : len(look)] = [tones.index(t) for t in look]
         self.looks = table[self.kind]
         self.has_parts = np.array([len(p) > 0 for p in parts])[self.kind]
-        self.look_filters = np.stack([processor._matched_filter(t)[0] for t in tones])
+        self.look_filters = np.stack([processor.matched_filter(t)[0] for t in tones])
         self.carriers = np.array([float(t.frequency) for t in tones])
 
     def range_profiles(self, processor: EchoProcessor) -> tuple[np.ndarray, np.ndarray]:
