@@ -59,7 +59,8 @@ QUICK: list[tuple[str, dict | str]] = [
      {"--samples": "1", "--step": "20", "--width": "32", "--spp": "1", "--workers": "1"}),
     ("mitsonar dataset info out/office_ds", {}),
     ("mitsonar dataset export out/office_ds --out out/office_ds.mcap", {}),
-    ("mitsonar map surfel room_glass --out out/room_surfels --record out/room_surfels.mcap",
+    ("mitsonar map surfel room_glass --duration 20 --out out/room_surfels --record "
+     "out/room_surfels.mcap",
      {"--duration": "0.3", "--width": "120", "--spp": "1"}),
     ("mitsonar scenes", {}),
     ("mitsonar scan room_glass --step 20 --out out/scan", {"--fov": "20x10"}),
