@@ -81,6 +81,9 @@ QUICK: list[tuple[str, dict | str]] = [
      BY_TEST_EXPERIMENTS),
     (".venv/bin/python experiments/imaging.py --stride 20 --out out/imaging", BY_TEST_EXPERIMENTS),
     (".venv/bin/python experiments/imaging.py --quick --out out/imaging", BY_TEST_EXPERIMENTS),
+    (".venv/bin/python experiments/incidence.py --period 2 --out out/incidence",
+     BY_TEST_EXPERIMENTS),
+    (".venv/bin/python experiments/incidence.py --quick --out out/incidence", BY_TEST_EXPERIMENTS),
 ]
 
 
