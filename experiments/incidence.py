@@ -7,7 +7,8 @@ every ``--period`` seconds of driving (the sensor head on the robot,
 physical default ``SonarConfig()``, TCT40-class narrow-band transducers and physical-optics
 plus Lambert scattering, and ``SonarConfig.preset('paper')``) fire single-beam pings over the
 beam grid (:meth:`Sonar.scan <mitsonar.sensors.sonar.Sonar.scan>`, ``--step`` apart, every beam
-from that pose).
+from that pose). ``--presets`` also takes two variants of the default that test why it loses
+walls (:data:`VARIANTS`).
 
 Ground truth of every beam, cast with the sonar's own acoustic ray caster (the first surface
 that is not acoustically transparent, ``AcousticTracer._intersect``) from the transmit origin
@@ -32,12 +33,14 @@ fraction detected, median and 90th percentile of each error, share within 2 cm. 
 whose name means different acoustic properties in different scenes is labelled per scene.
 
 Writes incidence.csv/.md (a row per preset, material and bin; the .md adds, per material, the
-angle at which detection falls below 50 %), incidence_beams.csv (every beam) and incidence.png
+incidences where detection is below 50 %), incidence_beams.csv (every beam) and incidence.png
 (detected fraction and median errors against incidence, a line per material, a column per
 preset). docs/incidence.md shows them.
 
-    .venv/bin/python experiments/incidence.py --period 2 --out out/incidence
-    .venv/bin/python experiments/incidence.py --quick --out out/incidence    # ~20 s
+    .venv/bin/python experiments/incidence.py --period 2 --out out/incidence    # 26 min
+    .venv/bin/python experiments/incidence.py --quick --out out/incidence       # ~10 s
+    .venv/bin/python experiments/incidence.py --scenes room_glass \
+        --presets default,default_broadband,default_no_sidelobe_check --period 4
 """
 
 from __future__ import annotations
@@ -63,7 +66,13 @@ from mitsonar.sensors.trajectory import sensor_poses
 
 SCENES = Path(__file__).resolve().parents[1] / "scenes"
 SCENE_NAMES = ("room_glass", "structure", "office", "workshop")
+#: The presets compared, then two variants of the default that test why it loses walls (run
+#: when named in --presets): broadband (20 kHz) transducers instead of the TCT40's 2 kHz, and
+#: the receiver's side-lobe check off (``DetectionSettings.ghost_margin = 0``).
 PRESETS = ("default", "paper")
+VARIANTS = ("default_broadband", "default_no_sidelobe_check")
+#: The broadband variant's -6 dB transducer bandwidth [Hz].
+BROADBAND = 20e3
 #: Grid step [rad] and half span [rad] (in field-of-view angles around each beam) on which the
 #: beams' -3 dB cones are sampled; the span is checked to hold the whole cone.
 CONE_STEP = np.radians(0.25)
@@ -73,7 +82,7 @@ ACCURACY_THRESHOLD = 0.02
 #: Detected fraction whose crossing the Markdown summary reports.
 HALF = 0.5
 #: A material gets its own line when it holds at least this share of a preset's beams.
-MIN_MATERIAL_SHARE = 0.02
+MIN_MATERIAL_SHARE = 0.015
 ALL, OTHER = "all materials", "other materials"
 
 
@@ -174,9 +183,20 @@ def material_labels(scenes: dict) -> dict:
             for s, scene in scenes.items() for k, m in enumerate(scene.materials)}
 
 
+def sonar_config(name: str) -> mitsonar.SonarConfig:
+    """The configuration of a preset or variant (:data:`PRESETS`, :data:`VARIANTS`)."""
+    if name == "default_broadband":
+        return mitsonar.SonarConfig(transducer=mitsonar.Transducer(bandwidth_6db=BROADBAND))
+    if name == "default_no_sidelobe_check":
+        config = mitsonar.SonarConfig()
+        return replace(config, detection=replace(config.detection, ghost_margin=0.0))
+    return mitsonar.SonarConfig.preset(name)
+
+
 def sonar_for(scene, preset: str, settings: RunSettings) -> mitsonar.Sonar:
-    """The loaded ``scene``'s sonar with ``preset`` (and the settings' rays per axis)."""
-    config = mitsonar.SonarConfig.preset(preset)
+    """The loaded ``scene``'s sonar with ``preset`` (:func:`sonar_config`; and the settings'
+    rays per axis)."""
+    config = sonar_config(preset)
     if settings.rays_per_axis is not None:
         config = replace(config, trace=replace(config.trace, rays_per_axis=settings.rays_per_axis))
     return mitsonar.Sonar(scene, config)
@@ -235,11 +255,12 @@ def _stats(beams: dict, rows: np.ndarray) -> dict:
 
 
 def bin_rows(beams: dict, labels: np.ndarray, bin_width: float) -> list[dict]:
-    """Rows per preset, material label and incidence bin of ``bin_width`` [rad] (plus
-    :data:`ALL` materials) of the ``beams`` columns (:func:`scene_beams`) whose axis hits a
+    """Rows per preset, material label and incidence bin of ``bin_width`` [rad] centred on its
+    multiples (the beams of a 5 deg grid meet walls parallel to the path at multiples of 5 deg;
+    the first bin is [0, bin_width / 2)) (plus :data:`ALL` materials) of the ``beams`` columns (:func:`scene_beams`) whose axis hits a
     surface within the recorded range; ``labels`` (N,) is each beam's material label."""
     valid = (beams["material"] >= 0) & (beams["axis_range"] <= beams["max_range"])
-    bins = np.floor(np.where(valid, beams["incidence"], 0.0) / bin_width).astype(int)
+    bins = np.floor(np.where(valid, beams["incidence"], 0.0) / bin_width + 0.5).astype(int)
     rows = []
     for preset in dict.fromkeys(beams["preset"]):
         mine = valid & (beams["preset"] == preset)
@@ -248,30 +269,40 @@ def bin_rows(beams: dict, labels: np.ndarray, bin_width: float) -> list[dict]:
             scenes = ";".join(dict.fromkeys(beams["scene"][group]))
             for b in np.unique(bins[group]):
                 rows.append({"preset": preset, "material": label, "scenes": scenes,
-                             "incidence_lo_deg": float(np.degrees(b * bin_width)),
-                             "incidence_hi_deg": float(np.degrees((b + 1) * bin_width)),
+                             "incidence_deg": float(np.degrees(b * bin_width)),
+                             "incidence_lo_deg": float(np.degrees(max(b - 0.5, 0) * bin_width)),
+                             "incidence_hi_deg": float(np.degrees((b + 0.5) * bin_width)),
                              **_stats(beams, np.flatnonzero(group & (bins == b)))})
     return rows
 
 
-def crossing_angle(rows: list[dict], min_beams: int, level: float = HALF) -> float:
-    """Incidence [deg] at which the detected fraction of one preset's and material's ``rows``
-    (bins in increasing angle) first falls below ``level``, interpolated linearly between the
-    centres of bins with at least ``min_beams`` beams; -inf if the first such bin is already
-    below, inf if none is, NaN without such bins."""
+def crossings(rows: list[dict], min_beams: int, level: float = HALF) -> list[float]:
+    """Incidences [deg] at which the detected fraction of one preset's and material's ``rows``
+    (bins in increasing angle) crosses ``level``, falling and rising in turn, interpolated
+    linearly between the centres (``incidence_deg``) of bins with at least ``min_beams`` beams;
+    first -inf when the first such bin is already below."""
     kept = [r for r in rows if r["beams"] >= min_beams]
-    if not kept:
-        return np.nan
-    centre = np.array([(r["incidence_lo_deg"] + r["incidence_hi_deg"]) / 2 for r in kept])
+    centre = np.array([r["incidence_deg"] for r in kept])
     fraction = np.array([r["detected_pct"] / 100 for r in kept])
-    below = np.flatnonzero(fraction < level)
-    if len(below) == 0:
-        return np.inf
-    i = below[0]
-    if i == 0:
-        return -np.inf
-    f0, f1 = fraction[i - 1], fraction[i]
-    return float(centre[i - 1] + (f0 - level) / (f0 - f1) * (centre[i] - centre[i - 1]))
+    below = fraction < level
+    out = [-np.inf] if len(kept) and below[0] else []
+    for i in np.flatnonzero(below[1:] != below[:-1]):
+        f0, f1 = fraction[i], fraction[i + 1]
+        out.append(float(centre[i] + (f0 - level) / (f0 - f1) * (centre[i + 1] - centre[i])))
+    return out
+
+
+def _loss_text(rows: list[dict], min_beams: int) -> str:
+    """Where one preset's and material's detection is below 50 % (:func:`crossings`), as text:
+    "a-b" [deg], "from a on", "<=c" for a start before the first bin counted (centre c), "-"
+    for never."""
+    angles = crossings(rows, min_beams)
+    if not angles:
+        return "-"
+    first = min(r["incidence_deg"] for r in rows if r["beams"] >= min_beams)
+    ends = [f"<={first:.1f}" if a == -np.inf else f"{a:.1f}" for a in angles]
+    return ", ".join(f"{ends[k]}-{ends[k + 1]}" if k + 1 < len(ends) else f"from {ends[k]} on"
+                     for k in range(0, len(ends), 2))
 
 
 def plotted_materials(rows: list[dict], preset: str) -> list[str]:
@@ -286,21 +317,13 @@ def plotted_materials(rows: list[dict], preset: str) -> list[str]:
                   key=lambda m: -counts[m])
 
 
-def _angle_text(angle: float, bin_width_deg: float) -> str:
-    if np.isnan(angle):
-        return "-"
-    if angle == -np.inf:
-        return f"< {bin_width_deg / 2:.1f}"
-    return "never" if angle == np.inf else f"{angle:.1f}"
-
-
-def markdown(rows: list[dict], bin_width_deg: float, min_beams: int) -> list[str]:
-    """Per material: beams, detected %, within 2 cm and the 50 % crossing of each preset (bins
-    of at least ``min_beams`` beams)."""
+def markdown(rows: list[dict], min_beams: int) -> list[str]:
+    """Per material: beams, detected %, within 2 cm and the incidences where detection is below
+    50 % (:func:`_loss_text`, bins of at least ``min_beams`` beams) of each preset."""
     presets = list(dict.fromkeys(r["preset"] for r in rows))
     materials = list(dict.fromkeys(m for p in presets for m in [ALL] + plotted_materials(rows, p)))
     md = ["| material | " + " | ".join(
-        f"{p}: beams | {p}: detected % | {p}: within 2 cm % | {p}: detection < 50 % beyond [deg]"
+        f"{p}: beams | {p}: detected % | {p}: within 2 cm % | {p}: detected < 50 % at [deg]"
         for p in presets) + " |", "|---|" + "---:|---:|---:|---:|" * len(presets)]
     for material in materials:
         cells = []
@@ -311,7 +334,7 @@ def markdown(rows: list[dict], bin_width_deg: float, min_beams: int) -> list[str
             within = sum(r["within_2cm_pct"] * r["detected"] / 100 for r in mine if r["detected"])
             cells.append(f"{beams} | {100 * detected / max(beams, 1):.1f} | "
                          f"{100 * within / max(detected, 1):.1f} | "
-                         f"{_angle_text(crossing_angle(mine, min_beams), bin_width_deg)}")
+                         f"{_loss_text(mine, min_beams)}")
         md.append(f"| {material} | " + " | ".join(cells) + " |")
     return md
 
@@ -328,18 +351,19 @@ def save_figure(path: Path, rows: list[dict], min_beams: int) -> None:
     quantities = (("detected_pct", "beams detected [%]"),
                   ("axis_error_median_mm", "median |depth - axis range| [mm]"),
                   ("surface_error_median_mm", "median distance of the point\nto the surface [mm]"))
-    fig, axes = plt.subplots(len(quantities), len(presets), figsize=(7 * len(presets), 11),
+    fig, axes = plt.subplots(len(quantities), len(presets), figsize=(7 * len(presets), 12),
                              squeeze=False, sharex=True)
+    handles = {}
     for col, preset in enumerate(presets):
         for material in [ALL] + plotted_materials(rows, preset):
             mine = [r for r in rows if r["preset"] == preset and r["material"] == material
                     and r["beams"] >= min_beams]
-            x = [(r["incidence_lo_deg"] + r["incidence_hi_deg"]) / 2 for r in mine]
+            x = [r["incidence_deg"] for r in mine]
             style = dict(color="k", lw=2.2) if material == ALL else \
                 dict(color=colours[material], ls=styles[material], lw=1.2)
             for row, (key, _) in enumerate(quantities):
-                axes[row, col].plot(x, [r[key] for r in mine], marker=".", label=material,
-                                    **style)
+                handles[material], = axes[row, col].plot(x, [r[key] for r in mine], marker=".",
+                                                         label=material, **style)
         axes[0, col].set_title(f"preset '{preset}'")
         axes[0, col].axhline(100 * HALF, color="grey", ls=":", lw=1)
         axes[0, col].set_ylim(-3, 103)
@@ -347,28 +371,35 @@ def save_figure(path: Path, rows: list[dict], min_beams: int) -> None:
             axes[row, col].set_ylabel(label)
             axes[row, col].grid(True, lw=0.3, alpha=0.5)
         for row in (1, 2):
-            axes[row, col].set_yscale("log")
+            if any(np.nanmin(line.get_ydata(), initial=np.inf) > 0 for line in axes[row, col].lines
+                   if len(line.get_ydata())):  # errors span decades; none drawn: linear
+                axes[row, col].set_yscale("log")
         axes[2, col].axhline(1e3 * ACCURACY_THRESHOLD, color="grey", ls=":", lw=1)
         axes[-1, col].set_xlabel("incidence angle of the beam axis [deg]")
-        axes[0, col].legend(fontsize=7, loc="upper right")
-    fig.tight_layout()
+    fig.legend(handles=list(handles.values()), loc="lower center", ncol=4, fontsize=8)
+    fig.tight_layout(rect=(0, 0.03 + 0.012 * ((len(handles) + 3) // 4), 1, 1))
     save_png(fig, path)
 
 
-def _scene_names(text: str) -> list[str]:
-    """--scenes: comma separated shipped scene names."""
-    unknown = sorted(set(text.split(",")) - set(SCENE_NAMES))
-    if unknown:
-        raise argparse.ArgumentTypeError(f"unknown {', '.join(unknown)}; "
-                                         f"known: {', '.join(SCENE_NAMES)}")
-    return text.split(",")
+def _names(known):
+    """Argument type of a comma separated subset of ``known`` names."""
+    def parse(text: str) -> list[str]:
+        unknown = sorted(set(text.split(",")) - set(known))
+        if unknown:
+            raise argparse.ArgumentTypeError(f"unknown {', '.join(unknown)}; "
+                                             f"known: {', '.join(known)}")
+        return text.split(",")
+    return parse
 
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, default=Path("out/incidence"))
-    parser.add_argument("--scenes", type=_scene_names, default=list(SCENE_NAMES),
+    parser.add_argument("--scenes", type=_names(SCENE_NAMES), default=list(SCENE_NAMES),
                         help=f"comma separated subset of {', '.join(SCENE_NAMES)} (default: all)")
+    parser.add_argument("--presets", type=_names(PRESETS + VARIANTS), default=list(PRESETS),
+                        help=f"comma separated presets and variants of the default among "
+                             f"{', '.join(PRESETS + VARIANTS)} (default: {', '.join(PRESETS)})")
     parser.add_argument("--period", type=float, default=2.0,
                         help="seconds of driving between sampled poses (default 2)")
     parser.add_argument("--step", type=float, default=5.0, help="beam grid step [deg] (default 5)")
@@ -401,14 +432,14 @@ def main(argv=None) -> int:
             done[0] += 1
             print(f"\r{name}: {done[0]} scans ({preset})", end="", file=sys.stderr)
 
-        parts.append(scene_beams(index, name, loaded[name], PRESETS, settings, progress))
+        parts.append(scene_beams(index, name, loaded[name], args.presets, settings, progress))
         print(file=sys.stderr)
     beams = {key: np.concatenate([p[key] for p in parts]) for key in parts[0]}
     names = material_labels(loaded)
     labels = np.array([names[s, m] if m >= 0 else "" for s, m in
                        zip(beams["scene"], beams["material"])])
     rows = bin_rows(beams, labels, settings.bin_width)
-    md = markdown(rows, np.degrees(settings.bin_width), settings.min_bin_beams)
+    md = markdown(rows, settings.min_bin_beams)
     args.out.mkdir(parents=True, exist_ok=True)
     write_table(args.out / "incidence.csv", rows, md)
     write_table(args.out / "incidence_beams.csv", [

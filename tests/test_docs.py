@@ -84,6 +84,9 @@ QUICK: list[tuple[str, dict | str]] = [
     (".venv/bin/python experiments/incidence.py --period 2 --out out/incidence",
      BY_TEST_EXPERIMENTS),
     (".venv/bin/python experiments/incidence.py --quick --out out/incidence", BY_TEST_EXPERIMENTS),
+    (".venv/bin/python experiments/incidence.py --scenes room_glass --presets "
+     "default,default_broadband,default_no_sidelobe_check --period 4 --out out/incidence_why",
+     BY_TEST_EXPERIMENTS),
 ]
 
 

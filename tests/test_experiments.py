@@ -243,7 +243,7 @@ def test_incidence_quick(tmp_path):
         assert int(r["detected"]) == 0 or 0 <= float(r["within_2cm_pct"]) <= 100
     assert {"wall_drywall", "window_glass"} <= {r["material"] for r in rows}
     assert (tmp_path / "incidence.png").stat().st_size > 30_000
-    assert "detection < 50 % beyond" in (tmp_path / "incidence.md").read_text()
+    assert "detected < 50 % at" in (tmp_path / "incidence.md").read_text()
 
 
 def test_incidence_ground_truth_of_a_tilted_wall(scene_file):
@@ -288,14 +288,16 @@ def test_incidence_ground_truth_of_a_tilted_wall(scene_file):
 
 
 def test_incidence_bins_and_crossing():
-    """Beams binned by preset, material and 5 deg incidence bins: counts, detected fraction,
+    """Beams binned by preset, material and 5 deg incidence bins centred on multiples of 5 deg:
+    counts, detected fraction,
     median errors and the share within 2 cm of hand-made beams; misses and beams beyond the
-    recorded range are left out; the 50 % crossing interpolates between bin centres."""
+    recorded range are left out; the 50 % crossings (falling, then rising) interpolate between
+    the centres of the bins counted."""
     incidence = load_experiment("incidence")
     deg = np.radians
     beams = {"preset": np.array(["default"] * 6), "scene": np.array(["s"] * 6),
              "material": np.array([0, 0, 0, 0, -1, 0]),
-             "incidence": deg([1.0, 3.0, 7.0, 8.0, np.nan, 2.0]),
+             "incidence": deg([1.0, 2.0, 6.0, 7.0, np.nan, 2.0]),
              "axis_range": np.array([1.0, 2.0, 1.5, 1.5, np.inf, 6.0]),
              "cone_range": np.array([1.0, 1.9, 1.4, 1.45, np.inf, 5.9]),
              "detected": np.array([True, True, True, False, False, True]),
@@ -304,8 +306,10 @@ def test_incidence_bins_and_crossing():
              "max_range": np.full(6, 5.0)}
     labels = np.array(["wall"] * 4 + [""] + ["wall"])
     rows = incidence.bin_rows(beams, labels, deg(5.0))
-    wall = {r["incidence_lo_deg"]: r for r in rows if r["material"] == "wall"}
+    wall = {r["incidence_deg"]: r for r in rows if r["material"] == "wall"}
     assert sorted(wall) == [0.0, 5.0]
+    np.testing.assert_allclose([(wall[c]["incidence_lo_deg"], wall[c]["incidence_hi_deg"])
+                                for c in (0.0, 5.0)], [(0.0, 2.5), (2.5, 7.5)])
     assert [r["beams"] for r in rows if r["material"] == "all materials"] == [2, 2]
     first, second = wall[0.0], wall[5.0]
     assert (first["beams"], first["detected"], first["detected_pct"]) == (2, 2, 100.0)
@@ -315,9 +319,31 @@ def test_incidence_bins_and_crossing():
     assert first["within_2cm_pct"] == 50.0
     assert (second["beams"], second["detected_pct"]) == (2, 50.0)
     assert second["axis_error_median_mm"] == pytest.approx(50.0)
-    synthetic = [{"incidence_lo_deg": lo, "incidence_hi_deg": lo + 5.0, "beams": n,
-                  "detected_pct": pct} for lo, n, pct in
-                 ((0.0, 40, 100.0), (5.0, 40, 80.0), (10.0, 5, 10.0), (15.0, 40, 40.0))]
-    assert incidence.crossing_angle(synthetic, 20) == pytest.approx(7.5 + 0.3 / 0.4 * 10.0)
-    assert incidence.crossing_angle(synthetic, 1) == pytest.approx(7.5 + 0.3 / 0.7 * 5.0)
-    assert incidence.crossing_angle(synthetic[:2], 20) == np.inf
+    synthetic = [{"incidence_deg": centre, "beams": n, "detected_pct": pct} for centre, n, pct in
+                 ((0.0, 40, 100.0), (5.0, 40, 80.0), (10.0, 5, 10.0), (15.0, 40, 40.0),
+                  (20.0, 40, 90.0))]
+    assert incidence.crossings(synthetic, 20) == pytest.approx([5.0 + 0.3 / 0.4 * 10.0, 16.0])
+    assert incidence.crossings(synthetic, 1) == pytest.approx([5.0 + 0.3 / 0.7 * 5.0, 16.0])
+    assert incidence.crossings(synthetic[:2], 20) == []
+    assert incidence.crossings(synthetic[3:], 20) == pytest.approx([-np.inf, 16.0])
+    assert incidence._loss_text(synthetic, 20) == "12.5-16.0"
+    assert incidence._loss_text(synthetic[3:], 20) == "<=15.0-16.0"
+
+
+def test_incidence_variants_change_one_thing():
+    """The diagnostic variants are the default with broadband transducers, or with the
+    side-lobe check off, and nothing else."""
+    from dataclasses import replace
+
+    import mitsonar
+
+    config = load_experiment("incidence").sonar_config
+    default = mitsonar.SonarConfig()
+    same = [("default", default), ("paper", mitsonar.SonarConfig.preset("paper")),
+            ("default_broadband",
+             replace(default, transducer=mitsonar.Transducer(bandwidth_6db=20e3))),
+            ("default_no_sidelobe_check",
+             replace(default, detection=replace(default.detection, ghost_margin=0.0)))]
+    for name, expected in same:  # repr: the configs hold arrays
+        assert repr(config(name)) == repr(expected), name
+    assert repr(config("default_broadband")) != repr(default)
