@@ -255,10 +255,11 @@ def _stats(beams: dict, rows: np.ndarray) -> dict:
 
 
 def bin_rows(beams: dict, labels: np.ndarray, bin_width: float) -> list[dict]:
-    """Rows per preset, material label and incidence bin of ``bin_width`` [rad] centred on its
-    multiples (the beams of a 5 deg grid meet walls parallel to the path at multiples of 5 deg;
-    the first bin is [0, bin_width / 2)) (plus :data:`ALL` materials) of the ``beams`` columns (:func:`scene_beams`) whose axis hits a
-    surface within the recorded range; ``labels`` (N,) is each beam's material label."""
+    """Rows per preset, material label (and :data:`ALL` materials) and incidence bin of the
+    ``beams`` columns (:func:`scene_beams`) whose axis hits a surface within the recorded range;
+    ``labels`` (N,) is each beam's material label. Bins are ``bin_width`` [rad] wide, centred on
+    its multiples (a 5 deg grid meets walls parallel to the path at multiples of 5 deg), the
+    first one [0, bin_width / 2)."""
     valid = (beams["material"] >= 0) & (beams["axis_range"] <= beams["max_range"])
     bins = np.floor(np.where(valid, beams["incidence"], 0.0) / bin_width + 0.5).astype(int)
     rows = []
