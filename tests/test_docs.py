@@ -82,6 +82,12 @@ QUICK: list[tuple[str, dict | str]] = [
      BY_TEST_EXPERIMENTS),
     (".venv/bin/python experiments/imaging.py --stride 20 --out out/imaging", BY_TEST_EXPERIMENTS),
     (".venv/bin/python experiments/imaging.py --quick --out out/imaging", BY_TEST_EXPERIMENTS),
+    (".venv/bin/python experiments/incidence.py --period 2 --out out/incidence",
+     BY_TEST_EXPERIMENTS),
+    (".venv/bin/python experiments/incidence.py --quick --out out/incidence", BY_TEST_EXPERIMENTS),
+    (".venv/bin/python experiments/incidence.py --scenes room_glass --presets "
+     "default,default_broadband,default_no_sidelobe_check --period 4 --out out/incidence_why",
+     BY_TEST_EXPERIMENTS),
 ]
 
 

@@ -220,3 +220,130 @@ def test_tables_keep_counts_exact(tmp_path):
     row = next(csv.DictReader((tmp_path / "t.csv").open()))
     assert row == {"name": "a", "points": "3042690", "n": "1387758", "flag": "1", "x": "0.333333"}
     assert (tmp_path / "t.md").read_text() == "| md |\n"
+
+
+def test_incidence_quick(tmp_path):
+    """Both presets have rows; each preset's bins of all materials count every beam whose axis
+    hits a surface in range once; fractions and shares are proper; the crossing table is
+    written."""
+    run_experiment("incidence", "--quick", "--out", str(tmp_path))
+    rows = list(csv.DictReader((tmp_path / "incidence.csv").open()))
+    beams = list(csv.DictReader((tmp_path / "incidence_beams.csv").open()))
+    for preset in ("default", "paper"):
+        mine = [r for r in beams if r["preset"] == preset]
+        assert len(mine) == 3 * 35  # 3 poses x the 10 deg grid
+        in_range = [r for r in mine if float(r["axis_range_m"]) <= 5.0]
+        total = [r for r in rows if r["preset"] == preset and r["material"] == "all materials"]
+        assert sum(int(r["beams"]) for r in total) == len(in_range) > 0
+        assert sum(int(r["detected"]) for r in total) == sum(r["detected"] == "1" for r in in_range)
+        for r in in_range:  # the nearest surface in the cone is no farther than the axis's
+            assert float(r["cone_range_m"]) <= float(r["axis_range_m"]) + 1e-6
+    for r in rows:
+        assert 0 <= float(r["detected_pct"]) <= 100
+        assert int(r["detected"]) == 0 or 0 <= float(r["within_2cm_pct"]) <= 100
+    assert {"wall_drywall", "window_glass"} <= {r["material"] for r in rows}
+    assert (tmp_path / "incidence.png").stat().st_size > 30_000
+    assert "detected < 50 % at" in (tmp_path / "incidence.md").read_text()
+
+
+def test_incidence_ground_truth_of_a_tilted_wall(scene_file):
+    """A flat wall 2 m ahead turned by 30 deg about the vertical, beams across it in the
+    horizontal plane at h = -20..20 deg: the axis hits it at incidence |30 deg - h| and range
+    D cos 30 / cos(30 deg - h) (float32 ray casting: within 0.1 mm and 1e-4 rad); the nearest
+    point of the -3 dB cone is where the cone's edge is turned farthest towards the normal,
+    D cos 30 / cos(|30 deg - h| - w), with w the offset towards the normal at which the beam's
+    two-way pattern falls to 1/sqrt(2) of its peak on a fine horizontal cut (0.0025 deg): the
+    cone, sampled every CONE_STEP, reaches w less at most one step (0.5 mm allowed beside)."""
+    import mitsonar
+    from mitsonar.frames import direction_from_fov_angles
+    from mitsonar.physics.beampattern import HALF_POWER, two_way_pattern
+    from mitsonar.scene.xml import material_xml, rectangle_xml
+
+    incidence = load_experiment("incidence")
+    tilt, distance = np.radians(30.0), 2.0
+    path = scene_file("wall", material_xml("wall", preset="drywall"),
+                      rectangle_xml("wall", (0, 0, distance), (0, 30, 0), size=(30.0, 30.0)))
+    sonar = mitsonar.Sonar(path)
+    h = np.radians([-20.0, -10.0, 0.0, 10.0, 20.0])
+    beams = direction_from_fov_angles(h, np.zeros_like(h))
+    truth = incidence.beam_truth(sonar.tracer, mitsonar.Pose.identity(), beams,
+                                 incidence.beam_cones(sonar.config, beams))
+    angle = np.abs(tilt - h)
+    assert [sonar.scene.materials[m].name for m in truth.material] == ["wall"] * len(h)
+    np.testing.assert_allclose(truth.incidence, angle, atol=1e-4)
+    np.testing.assert_allclose(truth.axis_range, distance * np.cos(tilt) / np.cos(angle),
+                               atol=1e-4)
+    g, config = sonar.config.geometry, sonar.config
+    k = float(config.medium.wavenumber(config.pulse.frequency))
+    towards = np.radians(np.arange(0.0, 6.0, 0.0025))  # offsets towards the normal (+h)
+    pattern = two_way_pattern(g.tx_positions, g.rx_positions, beams[:, None],
+                              direction_from_fov_angles(h[:, None] + towards, 0.0 * towards),
+                              config.transducer, k)
+    edge = towards[np.argmax(pattern < HALF_POWER * pattern.max(axis=1, keepdims=True), axis=1)]
+    assert np.all((edge > np.radians(1.0)) & (edge < np.radians(3.0)))  # ~3.5 deg wide beams
+    near = distance * np.cos(tilt) / np.cos(angle - edge)
+    far = distance * np.cos(tilt) / np.cos(angle - edge + incidence.CONE_STEP)
+    assert np.all((truth.cone_range >= near - 5e-4) & (truth.cone_range <= far + 5e-4)), (
+        truth.cone_range, near, far)
+
+
+def test_incidence_bins_and_crossing():
+    """Beams binned by preset, material and 5 deg incidence bins centred on multiples of 5 deg:
+    counts, detected fraction,
+    median errors and the share within 2 cm of hand-made beams; misses and beams beyond the
+    recorded range are left out; the 50 % crossings (falling, then rising) interpolate between
+    the centres of the bins counted."""
+    incidence = load_experiment("incidence")
+    deg = np.radians
+    beams = {"preset": np.array(["default"] * 6), "scene": np.array(["s"] * 6),
+             "material": np.array([0, 0, 0, 0, -1, 0]),
+             "incidence": deg([1.0, 2.0, 6.0, 7.0, np.nan, 2.0]),
+             "axis_range": np.array([1.0, 2.0, 1.5, 1.5, np.inf, 6.0]),
+             "cone_range": np.array([1.0, 1.9, 1.4, 1.45, np.inf, 5.9]),
+             "detected": np.array([True, True, True, False, False, True]),
+             "depth": np.array([1.01, 1.95, 1.45, np.nan, np.nan, 6.0]),
+             "surface_distance": np.array([0.005, 0.03, 0.01, np.nan, np.nan, 0.0]),
+             "max_range": np.full(6, 5.0)}
+    labels = np.array(["wall"] * 4 + [""] + ["wall"])
+    rows = incidence.bin_rows(beams, labels, deg(5.0))
+    wall = {r["incidence_deg"]: r for r in rows if r["material"] == "wall"}
+    assert sorted(wall) == [0.0, 5.0]
+    np.testing.assert_allclose([(wall[c]["incidence_lo_deg"], wall[c]["incidence_hi_deg"])
+                                for c in (0.0, 5.0)], [(0.0, 2.5), (2.5, 7.5)])
+    assert [r["beams"] for r in rows if r["material"] == "all materials"] == [2, 2]
+    first, second = wall[0.0], wall[5.0]
+    assert (first["beams"], first["detected"], first["detected_pct"]) == (2, 2, 100.0)
+    assert first["axis_error_median_mm"] == pytest.approx(30.0)  # |1.01 - 1|, |1.95 - 2|
+    assert first["cone_error_median_mm"] == pytest.approx(30.0)  # 10 and 50 mm
+    assert first["surface_error_median_mm"] == pytest.approx(17.5)
+    assert first["within_2cm_pct"] == 50.0
+    assert (second["beams"], second["detected_pct"]) == (2, 50.0)
+    assert second["axis_error_median_mm"] == pytest.approx(50.0)
+    synthetic = [{"incidence_deg": centre, "beams": n, "detected_pct": pct} for centre, n, pct in
+                 ((0.0, 40, 100.0), (5.0, 40, 80.0), (10.0, 5, 10.0), (15.0, 40, 40.0),
+                  (20.0, 40, 90.0))]
+    assert incidence.crossings(synthetic, 20) == pytest.approx([5.0 + 0.3 / 0.4 * 10.0, 16.0])
+    assert incidence.crossings(synthetic, 1) == pytest.approx([5.0 + 0.3 / 0.7 * 5.0, 16.0])
+    assert incidence.crossings(synthetic[:2], 20) == []
+    assert incidence.crossings(synthetic[3:], 20) == pytest.approx([-np.inf, 16.0])
+    assert incidence._loss_text(synthetic, 20) == "12.5-16.0"
+    assert incidence._loss_text(synthetic[3:], 20) == "<=15.0-16.0"
+
+
+def test_incidence_variants_change_one_thing():
+    """The diagnostic variants are the default with broadband transducers, or with the
+    side-lobe check off, and nothing else."""
+    from dataclasses import replace
+
+    import mitsonar
+
+    config = load_experiment("incidence").sonar_config
+    default = mitsonar.SonarConfig()
+    same = [("default", default), ("paper", mitsonar.SonarConfig.preset("paper")),
+            ("default_broadband",
+             replace(default, transducer=mitsonar.Transducer(bandwidth_6db=20e3))),
+            ("default_no_sidelobe_check",
+             replace(default, detection=replace(default.detection, ghost_margin=0.0)))]
+    for name, expected in same:  # repr: the configs hold arrays
+        assert repr(config(name)) == repr(expected), name
+    assert repr(config("default_broadband")) != repr(default)
