@@ -79,7 +79,7 @@ class DetectionSettings:
     echoes: str = "first"
     clutter_margin: float = 2.0
     min_coherence: float = 0.6
-    image_step: float = np.radians(1.5)
+    image_step: float = np.radians(2.0)
     image_half_angle: float = np.radians(3.0)
 
     def __post_init__(self):

@@ -1,0 +1,150 @@
+"""Receive imaging over each beam's lit cone (DetectionSettings.echoes = "image"): points across
+a plane tilted 45 deg, separated reflectors inside one cone, the false-alarm rate on noise alone
+against the design, no point where nothing is in the beam."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+
+import mitsonar
+from helpers import IDENTITY
+from mitsonar.frames import direction_from_fov_angles
+from mitsonar.physics.beampattern import main_lobe_width, one_way_pattern
+from mitsonar.scene.xml import material_xml, rectangle_xml, spanned_rectangle_xml
+from mitsonar.sensors.sonar import PRE_ROLL
+from mitsonar.signal.band import Band, Recording
+from mitsonar.signal.receiver import EchoProcessor
+from mitsonar.signal.synthesis import EchoSynthesizer
+
+#: Broadband transducers, the default receiver otherwise.
+CONFIG = mitsonar.SonarConfig(transducer=mitsonar.Transducer(bandwidth_6db=20e3))
+#: Three reflectors inside the broadside beam's 3 deg cone (sensor frame [m]), at different
+#: ranges, and their path gains [Pa].
+REFLECTORS = direction_from_fov_angles(np.radians([-2.0, 2.0, 0.5]),
+                                       np.radians([0.0, 1.0, -2.0])) \
+    * np.array([1.3, 1.9, 2.6])[:, None]
+GAINS = np.array([0.2, 0.15, 0.1])
+
+
+def _with(config: mitsonar.SonarConfig, mode: str) -> mitsonar.SonarConfig:
+    """``config`` with ``DetectionSettings.echoes`` = ``mode``."""
+    return replace(config, detection=replace(config.detection, echoes=mode))
+
+
+def processor(settings: mitsonar.DetectionSettings) -> EchoProcessor:
+    """A receiver of ``CONFIG`` with ``settings`` on the band of a scan's recordings."""
+    cfg = CONFIG
+    band = Band(cfg.pulse, cfg.transducer, cfg.sample_rate, -PRE_ROLL, cfg.record_duration,
+                cfg.transducer_response, floor=cfg.band_floor, baseband=cfg.baseband)
+    return EchoProcessor(cfg.geometry, band, cfg.medium.speed_of_sound, settings, cfg.noise_rms)
+
+
+def reflector_recording(band: Band, seed) -> Recording:
+    """The recording of the reflectors (exact delays from the transmit origin to each receive
+    element, the pulse's echo spectrum) with seeded receiver noise."""
+    g, c = CONFIG.geometry, CONFIG.medium.speed_of_sound
+    delay = (np.linalg.norm(REFLECTORS, axis=1)[:, None]
+             + np.linalg.norm(REFLECTORS[:, None] - g.rx_positions[None], axis=-1)) / c
+    shift = np.exp(-2j * np.pi * band.frequencies * (delay[..., None] - band.start_time))
+    spectrum = np.einsum("p,pjf->jf", GAINS, shift) * band.system_spectrum()[band.bins]
+    return EchoSynthesizer(band).recording(band.to_samples(spectrum), CONFIG.noise_rms,
+                                           seed=seed)
+
+
+def test_separated_reflectors_inside_one_cone():
+    """One broadside beam, three reflectors 2 deg off its axis at 1.3, 1.9 and 2.6 m: over 8
+    noise seeds "image" finds each within 5 mm every time (measured at most 1.7 mm), and no other
+    point (the ghost rate designed for: 0; "cells" places its points along the arrival
+    direction too, but only where the axis beam's envelope peaks)."""
+    receiver = processor(mitsonar.DetectionSettings(echoes="image"))
+    errors, ghosts = [], 0
+    for seed in range(8):
+        table = receiver.process_beams([reflector_recording(receiver.band, [5, seed])],
+                                       [[0.0, 0.0, 1.0]])[1].echoes
+        distance = np.linalg.norm(table.point[:, None] - REFLECTORS[None], axis=-1)
+        errors.append(distance.min(axis=0))
+        ghosts += int(np.sum(distance.min(axis=1) > 5e-3))
+    assert np.max(errors) <= 5e-3, np.max(errors, axis=0)
+    assert ghosts == 0
+
+
+def test_points_across_a_plane_tilted_45_deg(scene_file):
+    """A concrete plane at 45 deg through the broadside beam 1.5 m away, broadband transducers
+    driven by 4 cycles (2.7 cm of depth resolution): "image" places its points within 1 cm of the
+    plane, and they span more of the transmit beam's -6 dB footprint along the tilt than the
+    points of "cells" within 1 cm do. Measured over seeds 0-3: ..."""
+    tilt = np.radians(45.0)
+    normal = np.array([np.sin(tilt), 0.0, np.cos(tilt)])
+    distance = 1.5
+    scene = scene_file("tilted", material_xml("w", preset="concrete"),
+                       rectangle_xml("w", (0, 0, distance), (0, 45, 0), size=(3.0, 3.0)))
+    config = mitsonar.SonarConfig(transducer=mitsonar.Transducer(bandwidth_6db=20e3),
+                                  pulse=mitsonar.Pulse(cycles=4))
+    g, k = config.geometry, 2 * np.pi * config.pulse.frequency / config.medium.speed_of_sound
+    angles = np.radians(np.linspace(-10.0, 10.0, 2001))
+    half = main_lobe_width(angles, one_way_pattern(
+        g.tx_positions, [0.0, 0.0, 1.0], direction_from_fov_angles(angles, 0.0 * angles),
+        config.transducer, k), 0.5) / 2
+    ends = distance * np.sin([-half, half]) / (np.sin([-half, half]) + np.cos(half)) / np.cos(tilt)
+    spans = {}
+    for mode in ("cells", "image"):
+        sonar = mitsonar.Sonar(scene, _with(config, mode))
+        span = []
+        for seed in range(4):
+            table = sonar.scan(IDENTITY, [[0.0, 0.0, 1.0]], seed=seed).echo_table
+            off_plane = np.abs((table.point - [0.0, 0.0, distance]) @ normal)
+            along = table.point[:, 0] / np.cos(tilt)  # along the tilt, on the plane [m]
+            if mode == "image":
+                assert len(table) >= 2 and np.all(off_plane <= 0.01), (along, off_plane)
+            near = np.clip(along[off_plane <= 0.01], *ends)
+            span.append(near.max() - near.min() if len(near) else 0.0)
+        spans[mode] = np.array(span) / (ends[1] - ends[0])
+    assert spans["image"].mean() > spans["cells"].mean(), spans
+
+
+def test_noise_alone_gives_the_design_false_alarm_rate():
+    """117 beams of receiver noise alone, threshold lowered to 3 x the RMS noise envelope (a
+    rate one can count), the side-lobe check and the direction's trust off: the points per beam
+    are within a factor of two of the design (ConeImager.expected_false_alarms, the Euler
+    characteristic of the excursion set over the cone x the window; measured ...). With the
+    checks on, noise gives fewer (measured: ...)."""
+    eta = 3.0
+    receiver = processor(mitsonar.DetectionSettings())
+    band = receiver.band
+    synth = EchoSynthesizer(band)
+    noise = [synth.recording(np.zeros((CONFIG.geometry.rx.count, band.n_samples)),
+                             CONFIG.noise_rms, seed=[11, b]) for b in range(117)]
+    directions = CONFIG.geometry.fov_grid(np.radians(5.0))
+    window = band.n_samples / band.sample_rate + band.start_time \
+        - 2 * receiver.settings.min_range / receiver.c  # [s] (to a few samples)
+    counted = {}
+    for checks in (False, True):
+        off = {} if checks else dict(ghost_margin=0.0, min_coherence=0.0, clutter_margin=1e-3)
+        settings = mitsonar.DetectionSettings(echoes="image", detection_snr=eta,
+                                              detection_floor=1e-9, **off)
+        cone_receiver = processor(settings)
+        counted[checks] = len(cone_receiver.process_beams(noise, directions)[1].echoes)
+    design = cone_receiver._cone.expected_false_alarms(eta, window, CONFIG.geometry.rx_positions)
+    rate = counted[False] / len(directions)
+    assert 0.5 * design <= rate <= 2 * design, (rate, design, counted)
+    assert counted[True] <= counted[False]
+
+
+def test_no_point_where_nothing_is_in_the_beam(scene_file):
+    """A smooth metal plate facing the sensor 20 deg to the side, whose specular echo reaches
+    the beams that point elsewhere through their side lobes: "image" reports no point in those
+    beams, and the plate's own beam gets its point at 1.5 m (within 5 mm)."""
+    centre = 1.5 * direction_from_fov_angles(np.radians(20.0), 0.0)
+    normal = -centre / np.linalg.norm(centre)
+    across = np.cross([0.0, 1.0, 0.0], normal)
+    scene = scene_file("plate", material_xml("m", preset="metal", scattering=0.0),
+                       spanned_rectangle_xml("m", centre, across, np.cross(normal, across),
+                                             (0.4, 0.4)))
+    directions = direction_from_fov_angles(np.radians([-10.0, 0.0, 5.0, 8.0, 20.0, 15.0]),
+                                           np.radians([0.0, 0.0, 10.0, 0.0, 0.0, 0.0]))
+    sonar = mitsonar.Sonar(scene, _with(mitsonar.SonarConfig(), "image"))
+    table = sonar.scan(IDENTITY, directions, seed=1).echo_table
+    assert set(table.beam) == {4}, table.beam
+    assert np.min(np.abs(table.depth - 1.5)) <= 5e-3
