@@ -9,10 +9,9 @@ from dataclasses import replace
 import numpy as np
 
 import mitsonar
-from helpers import IDENTITY
+from helpers import (IDENTITY, TILT, TILT_DISTANCE, TILT_NORMAL, noise_beams, side_plate,
+                     tilted_footprint, tilted_plane)
 from mitsonar.frames import direction_from_fov_angles
-from mitsonar.physics.beampattern import main_lobe_width, one_way_pattern
-from mitsonar.scene.xml import material_xml, rectangle_xml, spanned_rectangle_xml
 from mitsonar.sensors.sonar import PRE_ROLL
 from mitsonar.signal.band import Band, Recording
 from mitsonar.signal.receiver import EchoProcessor
@@ -57,8 +56,8 @@ def test_separated_reflectors_inside_one_cone():
     """One broadside beam, three reflectors 2 deg off its axis at 1.3, 1.9 and 2.6 m: over 8
     noise seeds "image" finds each within 5 mm every time (measured at most 0.9 mm), and no other
     point (the ghost rate designed for: none; the reflectors stand 20-60 dB over the noise and
-    their range side lobes are the clutter rule's). Fails if the points are placed at the grid
-    direction's offset-free position (the cone's centre) instead of where the image peaks."""
+    their range side lobes are the clutter rule's). Fails if the peak's grid offset from the
+    beam's axis is left out of where it is placed."""
     receiver = processor(mitsonar.DetectionSettings(echoes="image"))
     errors, ghosts = [], 0
     for seed in range(8):
@@ -79,27 +78,18 @@ def test_points_across_a_plane_tilted_45_deg(scene_file):
     points, at most 9.6 mm off the plane, spanning 63-79 % of the footprint (mean 70 %; "cells"
     31-79 %, mean 65 %). Fails if the image's peak need not be a peak (a rim direction whose
     neighbour outside the cone is stronger), or without the side-lobe check and the trust."""
-    tilt = np.radians(45.0)
-    normal = np.array([np.sin(tilt), 0.0, np.cos(tilt)])
-    distance = 1.5
-    scene = scene_file("tilted", material_xml("w", preset="concrete"),
-                       rectangle_xml("w", (0, 0, distance), (0, 45, 0), size=(3.0, 3.0)))
+    scene = tilted_plane(scene_file)
     config = mitsonar.SonarConfig(transducer=mitsonar.Transducer(bandwidth_6db=20e3),
                                   pulse=mitsonar.Pulse(cycles=4))
-    g, k = config.geometry, 2 * np.pi * config.pulse.frequency / config.medium.speed_of_sound
-    angles = np.radians(np.linspace(-10.0, 10.0, 2001))
-    half = main_lobe_width(angles, one_way_pattern(
-        g.tx_positions, [0.0, 0.0, 1.0], direction_from_fov_angles(angles, 0.0 * angles),
-        config.transducer, k), 0.5) / 2
-    ends = distance * np.sin([-half, half]) / (np.sin([-half, half]) + np.cos(half)) / np.cos(tilt)
+    ends = tilted_footprint(config, 0.5)
     spans = {}
     for mode in ("cells", "image"):
         sonar = mitsonar.Sonar(scene, _with(config, mode))
         span = []
         for seed in range(4):
             table = sonar.scan(IDENTITY, [[0.0, 0.0, 1.0]], seed=seed).echo_table
-            off_plane = np.abs((table.point - [0.0, 0.0, distance]) @ normal)
-            along = table.point[:, 0] / np.cos(tilt)  # along the tilt, on the plane [m]
+            off_plane = np.abs((table.point - [0.0, 0.0, TILT_DISTANCE]) @ TILT_NORMAL)
+            along = table.point[:, 0] / np.cos(TILT)  # along the tilt, on the plane [m]
             if mode == "image":
                 assert len(table) >= 2 and np.all(off_plane <= 0.01), (along, off_plane)
             near = np.clip(along[off_plane <= 0.01], *ends)
@@ -116,14 +106,7 @@ def test_noise_alone_gives_the_design_false_alarm_rate():
     measured 26 points, 0.79 of the design). With the checks on, noise gives none. Fails against
     the whole Euler characteristic (blobs peaking on the cone's rim counted too: 0.43 of it)."""
     eta = 3.0
-    receiver = processor(mitsonar.DetectionSettings())
-    band = receiver.band
-    synth = EchoSynthesizer(band)
-    noise = [synth.recording(np.zeros((CONFIG.geometry.rx.count, band.n_samples)),
-                             CONFIG.noise_rms, seed=[11, b]) for b in range(117)]
-    directions = CONFIG.geometry.fov_grid(np.radians(5.0))
-    window = band.n_samples / band.sample_rate + band.start_time \
-        - 2 * receiver.settings.min_range / receiver.c  # [s] (to a few samples)
+    noise, directions, window = noise_beams(processor(mitsonar.DetectionSettings()), CONFIG)
     counted = {}
     for checks in (False, True):
         off = {} if checks else dict(ghost_margin=0.0, min_coherence=0.0, clutter_margin=1e-3)
@@ -143,12 +126,7 @@ def test_no_point_where_nothing_is_in_the_beam(scene_file):
     beams, and the plate's own beam gets its point at 1.5 m (within 5 mm). Without both the
     side-lobe check and the direction's trust (either alone suffices here) the beams at 5 deg and
     15 deg report the plate."""
-    centre = 1.5 * direction_from_fov_angles(np.radians(20.0), 0.0)
-    normal = -centre / np.linalg.norm(centre)
-    across = np.cross([0.0, 1.0, 0.0], normal)
-    scene = scene_file("plate", material_xml("m", preset="metal", scattering=0.0),
-                       spanned_rectangle_xml("m", centre, across, np.cross(normal, across),
-                                             (0.4, 0.4)))
+    scene = side_plate(scene_file)
     directions = direction_from_fov_angles(np.radians([-10.0, 0.0, 5.0, 8.0, 20.0, 15.0]),
                                            np.radians([0.0, 0.0, 10.0, 0.0, 0.0, 0.0]))
     sonar = mitsonar.Sonar(scene, _with(mitsonar.SonarConfig(), "image"))
