@@ -129,6 +129,26 @@ class ConeImager:
                               waveform, interior=True)
 
 
+def parts_balanced(beamformer: Beamformer, looks, beams: np.ndarray, samples: np.ndarray,
+                   directions: np.ndarray, part_balance: float) -> np.ndarray:
+    """(E,) True where every part of the code of beam ``beams[e]`` is there at sample
+    ``samples[e]`` towards ``directions[e]`` (E, 3) with at least ``part_balance`` of the
+    strongest part's beam (a waveform without parts passes): the narrow-band beams of the
+    receiver's looks (:class:`~mitsonar.signal.receiver.EchoProcessor`'s, each part
+    matched-filtered and demodulated at its tone), a code's two parts in turn."""
+    waves = looks.waves
+    table = waves.looks[beams]
+    part = np.zeros(table.shape)
+    for look in range(table.shape[1]):  # a code's parts (two at most)
+        rows = np.flatnonzero(table[:, look] >= 0)
+        sets = looks.sets(beams[rows], look)
+        part[rows, look] = np.abs(beamformer.aligned(
+            looks.channels, sets, waves.carriers[table[rows, look]], samples[rows],
+            directions[rows]).sum(axis=1))
+    weakest = np.where(table >= 0, part, np.inf).min(axis=1)
+    return ~waves.has_parts[beams] | (weakest >= part_balance * part.max(axis=1))
+
+
 def cone_peaks(imager: ConeImager, image: np.ndarray):
     """(profile M (B, N) [Pa], peak direction index (B, N), whether it is a peak (B, N)) of an
     image (B, G, N): at every sample the largest value over the cone, where it lies, and whether

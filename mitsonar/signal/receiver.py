@@ -61,6 +61,9 @@ Order and choices:
   o_R, as it always has; at 1-4 m that puts its points about 8 mm aside, along c - o_R.) The
   strongest echo of each beam is its :class:`~mitsonar.signal.detection.Detections` entry; all
   are in :class:`~mitsonar.signal.detection.Echoes`.
+* Receive images over each beam's lit cone (``echoes`` = "image", :mod:`mitsonar.signal.cone`):
+  echoes and range cells chosen on where each beam's cone image peaks, checked and placed at
+  that direction; reported as "cells" are.
 """
 
 from __future__ import annotations
@@ -350,16 +353,8 @@ class EchoProcessor:
         beams, samples = (np.concatenate(x) for x in zip(found, cells))
         apparent = cone.apparent_directions(self._cone, image, u, beams, samples, best)
         directions = cone.unit_direction(apparent)
-        table = waves.looks[beams]
-        part = np.zeros(table.shape)
-        for look in range(table.shape[1]):  # a code's parts at the direction (two at most)
-            rows = np.flatnonzero(table[:, look] >= 0)
-            sets = looks.sets(beams[rows], look)
-            part[rows, look] = np.abs(self.beamformer.aligned(
-                looks.channels, sets, waves.carriers[table[rows, look]], samples[rows],
-                directions[rows]).sum(axis=1))
-        weakest = np.where(table >= 0, part, np.inf).min(axis=1)
-        passed = ~waves.has_parts[beams] | (weakest >= s.part_balance * part.max(axis=1))
+        passed = cone.parts_balanced(self.beamformer, looks, beams, samples, directions,
+                                     s.part_balance)
         if s.ghost_margin > 0:
             todo = np.flatnonzero(passed)
             passed[todo] = self._pass_side_lobe_check(looks, directions[todo], beams[todo],
