@@ -14,6 +14,9 @@ it was measured from (no odometry drift):
   from its own pose, :class:`~mitsonar.sensors.ofdm_sonar.OfdmSonar`).
 * imaging: single-ping receive images (:class:`~mitsonar.sensors.imaging_sonar.ImagingSonar`,
   one transmit element), one per listening cycle (30.4 / 34.0 ms).
+* ofdm_image: the same OFDM frames (poses and seeds), decoded by receive imaging over each
+  beam's lit cone (``DetectionSettings.echoes = 'image'``, :mod:`mitsonar.signal.cone`): one
+  point set, ``ofdm_image``.
 
 Echoes. The sequential and OFDM beams are simulated once with ``DetectionSettings.echoes =
 'cells'``, which reports every echo of a beam (its resolved peaks, exactly the rows that
