@@ -10,19 +10,20 @@ filter:
   direction cosines, s = sin(``image_step``), over the disc of radius sin(``image_half_angle``)
   (the cone) plus a guard ring of sqrt(2) s (every cone direction has its 8 neighbours). In
   direction cosines both the transmit and the receive patterns keep their shape wherever they
-  are steered, so one offset grid serves every beam. Delay-and-sum (5) on the band: the planar
-  array's phase exp(-j 2 pi f (p_j - o_R) . (u_b + d) / c) is the beam's steering phasor times
-  an x factor and a y factor of the offset d, so all directions of B beams are one batched
-  matrix product per band bin; then the beam's matched filter (6) and one inverse FFT per
-  direction (:meth:`ConeImager.envelopes`): the image (B, G, N), each row the envelope
-  :class:`~mitsonar.signal.receiver.EchoProcessor` forms towards that direction.
-* Peak (:func:`cone_peaks`): at every sample, the direction where the image peaks and its value,
-  the beam's profile M (B, N). Echoes and range cells are chosen on M as for "cells"
-  (:mod:`mitsonar.signal.multiecho`: over the noise threshold, over ``clutter_margin`` times the
-  range side lobes of stronger echoes and the other codes' cross-talk, range cells every
-  ceil(tau_r) across extended echoes), where the peak lies inside the cone (a peak on the guard
-  ring is an echo from outside the cone, lit by the transmit side lobes or leaking in through
-  the receive ones: no point).
+  are steered, so one offset grid serves every beam (2 deg and 3 deg: 25 directions, 9 inside
+  the cone). Delay-and-sum (5) on the band: the planar array's phase
+  exp(-j 2 pi f (p_j - o_R) . (u_b + d) / c) is the beam's steering phasor times a phase of the
+  offset d alone, the same for every beam, so all directions of B beams are one batched matrix
+  product per band bin, (B, N_rx) x (N_rx, G); then the beam's matched filter (6) and one
+  inverse FFT per direction (:meth:`ConeImager.envelopes`): the image (B, G, N), each row the
+  envelope :class:`~mitsonar.signal.receiver.EchoProcessor` forms towards that direction.
+* Peak (:func:`cone_peaks`): at every sample, the largest value of the image over the cone and
+  its direction, the beam's profile M (B, N). Echoes and range cells are chosen on M as for
+  "cells" (:mod:`mitsonar.signal.multiecho`: over the noise threshold, over ``clutter_margin``
+  times the range side lobes of stronger echoes and the other codes' cross-talk, range cells
+  every ceil(tau_r) across extended echoes), where that value is a peak: none of its 8
+  neighbours, those on the guard ring included, is larger (an echo from outside the cone, lit by
+  the transmit side lobes, rises towards the rim: no point).
 * Checks at the peak direction, with the receiver's looks (each part of a code matched-filtered
   and demodulated at its tone): every part of the code there with ``part_balance`` of the
   strongest; the side-lobe check towards the peak direction (no direction of the +-50 deg
