@@ -14,6 +14,9 @@ it was measured from (no odometry drift):
   from its own pose, :class:`~mitsonar.sensors.ofdm_sonar.OfdmSonar`).
 * imaging: single-ping receive images (:class:`~mitsonar.sensors.imaging_sonar.ImagingSonar`,
   one transmit element), one per listening cycle (30.4 / 34.0 ms).
+* ofdm_image: the same OFDM frames (poses and seeds), decoded by receive imaging over each
+  beam's lit cone (``DetectionSettings.echoes = 'image'``, :mod:`mitsonar.signal.cone`): one
+  point set, ``ofdm_image``.
 
 Echoes. The sequential and OFDM beams are simulated once with ``DetectionSettings.echoes =
 'cells'``, which reports every echo of a beam (its resolved peaks, exactly the rows that
@@ -67,6 +70,7 @@ from mitsonar.sensors.baselines import Lidar, sweep
 from mitsonar.sensors.imaging_sonar import ImagingSonar, TransmitSettings
 from mitsonar.sensors.ofdm_sonar import OfdmSonar, pose_along
 from mitsonar.sensors.trajectory import sensor_poses
+from mitsonar.signal.receiver import EchoProcessor
 
 if str(Path(__file__).resolve().parent) not in sys.path:  # the comparison's definitions
     sys.path.append(str(Path(__file__).resolve().parent))
@@ -75,7 +79,7 @@ from comparison import THIN_VOXEL, VIEW_PERIOD, VoxelThinner  # noqa: E402
 SCENES = Path(__file__).resolve().parents[1] / "scenes"
 SCENE_NAMES = ("office", "workshop")
 PRESETS = ("default", "paper")
-SCANS = ("sequential", "ofdm", "imaging")
+SCANS = ("sequential", "ofdm", "ofdm_image", "imaging")
 #: Echo sets of one sequential or OFDM simulation (module docstring).
 ECHO_SETS = ("first", "all", "cells")
 #: Accuracy threshold [m] and completeness threshold [m].
@@ -88,7 +92,8 @@ GOALS = {"paper": (10.0, 0.90), "default": (3.0, 0.70)}
 #: Completeness [%] below which the figure draws it at this value (log scale).
 COMPLETENESS_FLOOR = 0.1
 MARKERS = {"sequential_first": "s", "sequential_all": "D", "sequential_cells": "P",
-           "ofdm_first": "o", "ofdm_all": "^", "ofdm_cells": "v", "imaging": "*"}
+           "ofdm_first": "o", "ofdm_all": "^", "ofdm_cells": "v", "ofdm_image": "X",
+           "imaging": "*"}
 
 
 @dataclass(frozen=True)
@@ -169,13 +174,21 @@ def simulate(scan: str, sonar, trajectory, settings: RunSettings, progress) -> S
 
         def frame(t, k):
             return sequential_frame(sonar, pose_at, grid, t, _seed(settings.seed, k))
-    elif scan == "ofdm":
+    elif scan in ("ofdm", "ofdm_image"):
         ofdm = OfdmSonar(sonar)
+        if scan == "ofdm_image":  # the same frames, decoded by receive imaging over each cone
+            config = sonar.config
+            ofdm.processor = EchoProcessor(config.geometry, ofdm.band,
+                                           config.medium.speed_of_sound,
+                                           replace(config.detection, echoes="image"),
+                                           config.noise_rms)
         schedule = ofdm.schedule(grid)
         period = schedule.frame_duration
 
         def frame(t, k):
             result = ofdm.frame(schedule, pose_at, start_time=t, seed=_seed(settings.seed, k))
+            if scan == "ofdm_image":
+                return {"image": result.echo_points_world}
             return echo_sets(result.echo_table, result.echo_points_world)
     else:
         imaging = ImagingSonar(sonar, transmit=TransmitSettings(
@@ -271,9 +284,11 @@ def run_scene(name: str, presets, scans, settings: RunSettings) -> list[dict]:
                     accuracy, completeness, thinned = score(points, truth, settings.seed)
                     half = score(np.concatenate(frames[::2]), truth, settings.seed)[1]
                     strategy = scan if echoes == "image" else f"{scan}_{echoes}"
+                    scan_kind = scan.split("_")[0]  # ofdm_image: OFDM frames
                     per_frame = len(points) / sim.frames_simulated
                     rows.append({
-                        "scene": name, "strategy": strategy, "preset": preset, "scan": scan,
+                        "scene": name, "strategy": strategy, "preset": preset,
+                        "scan": scan_kind,
                         "echoes": echoes, "frame_rate_hz": sim.frame_rate,
                         "points_per_frame": per_frame,
                         "points_per_s": per_frame * sim.frame_rate,

@@ -56,3 +56,64 @@ def world_from(tree, frame) -> mitsonar.Pose:
         frame, parent_from_child = tree[frame]
         pose = parent_from_child @ pose
     return pose
+
+
+# ---- Receiver noise alone (tests/signal/test_echoes.py, tests/signal/test_cone_image.py) ----
+def noise_beams(receiver, config, count: int = 117):
+    """(``count`` seeded recordings of ``config``'s receiver noise alone on ``receiver``'s band,
+    one per beam; the beams' directions, the 5 deg grid; the listening window [s] from the
+    minimum range to the recording's end, to a few samples), for false-alarm counts."""
+    from mitsonar.signal.synthesis import EchoSynthesizer
+
+    band = receiver.band
+    synth = EchoSynthesizer(band)
+    noise = [synth.recording(np.zeros((config.geometry.rx.count, band.n_samples)),
+                             config.noise_rms, seed=[11, b]) for b in range(count)]
+    window = band.n_samples / band.sample_rate + band.start_time \
+        - 2 * receiver.settings.min_range / receiver.c
+    return noise, config.geometry.fov_grid(np.radians(5.0)), window
+
+
+# ---- A plane tilted 45 deg across the broadside beam (tests/signal/test_echoes.py, ...) ----
+#: Its tilt about y [rad], unit normal, and distance along the beam [m].
+TILT = np.radians(45.0)
+TILT_NORMAL = np.array([np.sin(TILT), 0.0, np.cos(TILT)])
+TILT_DISTANCE = 1.5
+
+
+def tilted_plane(scene_file):
+    """The scene of a 3 m concrete square tilted ``TILT`` about y, ``TILT_DISTANCE`` along the
+    broadside beam (``scene_file``: the conftest fixture)."""
+    from mitsonar.scene.xml import material_xml, rectangle_xml
+
+    return scene_file("tilted", material_xml("w", preset="concrete"),
+                      rectangle_xml("w", (0, 0, TILT_DISTANCE), (0, 45, 0), size=(3.0, 3.0)))
+
+
+def tilted_footprint(config, level: float = 2 ** -0.5) -> np.ndarray:
+    """(2,) ends [m] along the tilt, on the plane z = d - x, of the broadside transmit beam's
+    footprint at ``level`` of its peak (amplitude; default -3 dB) at the pulse's frequency."""
+    from mitsonar.frames import direction_from_fov_angles
+    from mitsonar.physics.beampattern import main_lobe_width, one_way_pattern
+
+    g, k = config.geometry, 2 * np.pi * config.pulse.frequency / config.medium.speed_of_sound
+    angles = np.radians(np.linspace(-10.0, 10.0, 2001))
+    half = main_lobe_width(angles, one_way_pattern(
+        g.tx_positions, BROADSIDE, direction_from_fov_angles(angles, 0.0 * angles),
+        config.transducer, k), level) / 2
+    side = np.sin([-half, half])
+    return TILT_DISTANCE * side / (side + np.cos(half)) / np.cos(TILT)
+
+
+def side_plate(scene_file):
+    """The scene of a smooth 40 cm metal plate facing the sensor 1.5 m away, 20 deg to the side
+    (``scene_file``: the conftest fixture)."""
+    from mitsonar.frames import direction_from_fov_angles
+    from mitsonar.scene.xml import material_xml, spanned_rectangle_xml
+
+    centre = 1.5 * direction_from_fov_angles(np.radians(20.0), 0.0)
+    normal = -centre / np.linalg.norm(centre)
+    across = np.cross([0.0, 1.0, 0.0], normal)
+    return scene_file("plate", material_xml("m", preset="metal", scattering=0.0),
+                      spanned_rectangle_xml("m", centre, across, np.cross(normal, across),
+                                            (0.4, 0.4)))

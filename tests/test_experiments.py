@@ -152,7 +152,7 @@ def test_imaging_quick(tmp_path):
     rows = {(r["preset"], r["strategy"]): r
             for r in csv.DictReader((tmp_path / "imaging.csv").open())}
     strategies = [f"{scan}_{e}" for scan in ("sequential", "ofdm")
-                  for e in ("first", "all", "cells")] + ["imaging"]
+                  for e in ("first", "all", "cells")] + ["ofdm_image", "imaging"]
     assert set(rows) == {(p, s) for p in ("default", "paper") for s in strategies}
     for (preset, strategy), r in rows.items():
         number = {k: float(v) for k, v in r.items() if k not in ("scene", "strategy", "preset",

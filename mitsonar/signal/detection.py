@@ -15,7 +15,7 @@ from mitsonar.validation import check_positive
 
 
 #: The settings of :attr:`DetectionSettings.echoes`.
-ECHO_MODES = ("first", "all", "cells")
+ECHO_MODES = ("first", "all", "cells", "image")
 
 
 @dataclass(frozen=True)
@@ -27,7 +27,9 @@ class DetectionSettings:
             the strongest accepted one, the single detection of :mod:`~mitsonar.signal.receiver`,
             unchanged), "all" (every echo over the range profile, each at its own arrival
             direction and bistatic depth) or "cells" ("all", plus a point for every independent
-            range cell across extended echoes); :mod:`mitsonar.signal.multiecho`.
+            range cell across extended echoes); :mod:`mitsonar.signal.multiecho`; or "image"
+            (receive beams over each beam's lit cone, a point per echo and range cell where the
+            image peaks inside it; :mod:`mitsonar.signal.cone`).
         detection_snr: threshold over the RMS noise envelope, eta (a ratio): noise alone
             exceeds it with probability exp(-eta^2) per sample and gives N eta exp(-eta^2)
             false echoes per beam, N = 2 sqrt(pi) b T the independent cells of a window of T
@@ -57,6 +59,10 @@ class DetectionSettings:
             the receive channels' power at its instant is explained by one plane wave from its
             arrival direction (:class:`Echoes` ``coherence``; echoes without an arrival-direction
             estimate are kept, range cells are not).
+        image_step: "image": spacing of the receive directions across a beam's cone at
+            broadside [rad] (sin(image_step) in direction cosines).
+        image_half_angle: "image": half-angle of the cone imaged around each beam's axis [rad]
+            (default 3 deg: the steered transmit beam's -6 dB half-width at 40 kHz is 3.1 deg).
     """
 
     detection_snr: float = 5.0
@@ -73,6 +79,8 @@ class DetectionSettings:
     echoes: str = "first"
     clutter_margin: float = 2.0
     min_coherence: float = 0.6
+    image_step: float = np.radians(2.0)
+    image_half_angle: float = np.radians(3.0)
 
     def __post_init__(self):
         if self.echoes not in ECHO_MODES:
@@ -85,7 +93,8 @@ class DetectionSettings:
             raise ValueError(f"DetectionSettings.min_coherence must be in [0, 1], "
                              f"got {self.min_coherence}")
         for name in ("detection_snr", "detection_floor", "blanking_margin", "min_range",
-                     "ghost_exclusion", "ghost_grid_step", "ghost_half_span", "clutter_margin"):
+                     "ghost_exclusion", "ghost_grid_step", "ghost_half_span", "clutter_margin",
+                     "image_step", "image_half_angle"):
             check_positive(f"DetectionSettings.{name}", getattr(self, name))
         if not (np.isfinite(self.ghost_margin) and self.ghost_margin >= 0):
             raise ValueError(f"DetectionSettings.ghost_margin must be >= 0, "
@@ -252,11 +261,18 @@ def candidates(envelopes: np.ndarray, accepted: np.ndarray, max_candidates: int)
     ``max_candidates`` per beam. Returns (beam, sample, rank) arrays, sorted by beam then rank
     (0: the beam's strongest)."""
     e = envelopes
-    peaks = np.zeros(e.shape, bool)
-    peaks[:, 1:-1] = (e[:, 1:-1] >= e[:, :-2]) & (e[:, 1:-1] > e[:, 2:])
-    beams, samples = np.nonzero(peaks & accepted)
+    beams, samples = np.nonzero(local_maxima(e) & accepted)
     order = np.lexsort((-e[beams, samples], beams))
     beams, samples = beams[order], samples[order]
     ranks = np.arange(len(beams)) - np.searchsorted(beams, beams)
     keep = ranks < max_candidates
     return beams[keep], samples[keep], ranks[keep]
+
+
+def local_maxima(envelopes: np.ndarray) -> np.ndarray:
+    """(B, N) where envelopes (B, N) have a local maximum along N (the first sample of a flat
+    top; never the first or last sample)."""
+    e = envelopes
+    peaks = np.zeros(e.shape, bool)
+    peaks[:, 1:-1] = (e[:, 1:-1] >= e[:, :-2]) & (e[:, 1:-1] > e[:, 2:])
+    return peaks

@@ -80,8 +80,8 @@ from scipy.ndimage import maximum_filter1d
 from mitsonar.physics.array import ArrayGeometry
 from mitsonar.physics.beampattern import array_factor, in_fov
 from mitsonar.signal.band import Band, Recording
-from mitsonar.signal.beamforming import dot
-from mitsonar.signal.detection import DetectionSettings, bistatic_depth, vertex
+from mitsonar.signal.cone import expected_blobs, peak_offsets, place
+from mitsonar.signal.detection import DetectionSettings, vertex
 from mitsonar.signal.receiver import EchoProcessor
 from mitsonar.validation import check_positive, check_range
 
@@ -213,9 +213,7 @@ class ReceiveImager:
         centre, _ = band.band_moments()
         self._main_lobe = np.sin(detection.ghost_exclusion)
         self._side_lobes, self._lobe = self._lobe_tables(offsets, 2 * np.pi * centre / self.c)
-        baseline = np.asarray(transmit_centre, dtype=float) - geometry.rx_origin
-        self._baseline = float(np.linalg.norm(baseline))
-        self._baseline_unit = baseline / max(self._baseline, 1e-300)
+        self._transmit_centre = np.asarray(transmit_centre, dtype=float)
         # Path length of the nearest reported range in each direction [m].
         r = detection.min_range
         self._min_path = r + np.linalg.norm(geometry.rx_origin + r * self.directions
@@ -296,29 +294,9 @@ class ReceiveImager:
         apparent = self.directions[d, :2] + self.spacing * self._peak_offsets(image, d, k)
         sample = k + vertex(image[d, k - 1], value, image[d, k + 1])
         length = self.c * (start_time + sample / fs)
-        arrival = _unit_direction(apparent)
-        for _ in range(2):  # (7) and the near-field correction depend on each other, weakly
-            receive_range = bistatic_depth(length, self._baseline,
-                                           dot(arrival, self._baseline_unit))
-            arrival = _unit_direction(apparent + self._near_field_shift(arrival, receive_range))
-        receive_range = bistatic_depth(length, self._baseline, dot(arrival, self._baseline_unit))
-        points = self.geometry.rx_origin + receive_range[:, None] * arrival
+        points, arrival = place(self.geometry, self._transmit_centre, length, apparent)
         snr = value / self.noise_level if self.noise_level > 0 else np.full(len(value), np.inf)
         return ImagePoints(points, arrival, length, value, snr, np.stack([d, k], axis=1))
-
-    def _near_field_shift(self, direction: np.ndarray, distance: np.ndarray) -> np.ndarray:
-        """(P, 2) what to add to the (u_x, u_y) of the peak of the plane-wave beams (5) to get
-        the direction of a source at ``distance`` (P,) [m] from the receive origin in
-        ``direction`` (P, 3). Within the array's far-field distance (2 x (10 cm)^2 / 8.5 mm =
-        2.3 m) element j hears the source q_j = (|p_j|^2 - (p_j . u)^2) / (2 r) later than a
-        plane wave from u; the beam that best aligns these delays (least squares) peaks
-        C^-1 cov(p, q) before u (C: the covariance of the positions p_j in the array plane)."""
-        p = self.geometry.rx_positions[:, :2] - self.geometry.rx_origin[:2]
-        along = direction[:, :2] @ p.T  # (P, N_rx)
-        late = (np.sum(p**2, axis=1) - along**2) / (2 * distance[:, None])
-        centred = p - p.mean(axis=0)
-        covariance = (late - late.mean(axis=1, keepdims=True)) @ centred / len(p)  # (P, 2)
-        return np.linalg.solve(np.cov(p.T, bias=True), covariance.T).T
 
     def _peak_offsets(self, image: np.ndarray, d: np.ndarray, k: np.ndarray) -> np.ndarray:
         """(P, 2) offsets [grid steps] along u_x and u_y of the main-lobe peaks around grid
@@ -328,19 +306,7 @@ class ReceiveImager:
         n_x = self.shape[1]
         near = np.log(np.maximum(np.stack([image[d + dy * n_x + dx, k] for dy in (-1, 0, 1)
                                            for dx in (-1, 0, 1)], axis=-1), 1e-30))
-        near = near.astype(float).reshape(-1, 3, 3)  # [p, y, x]
-        gx = 0.5 * (near[:, 1, 2] - near[:, 1, 0])
-        gy = 0.5 * (near[:, 2, 1] - near[:, 0, 1])
-        hxx = near[:, 1, 2] - 2 * near[:, 1, 1] + near[:, 1, 0]
-        hyy = near[:, 2, 1] - 2 * near[:, 1, 1] + near[:, 0, 1]
-        hxy = 0.25 * (near[:, 2, 2] - near[:, 2, 0] - near[:, 0, 2] + near[:, 0, 0])
-        det = hxx * hyy - hxy**2
-        safe = np.where(det > 0, det, 1.0)
-        joint = np.stack([(hxy * gy - hyy * gx) / safe, (hxy * gx - hxx * gy) / safe], axis=-1)
-        axes = np.stack([vertex(near[:, 1, 0], near[:, 1, 1], near[:, 1, 2]),
-                         vertex(near[:, 0, 1], near[:, 1, 1], near[:, 2, 1])], axis=-1)
-        maximum = (det > 0) & (hxx < 0) & np.all(np.abs(joint) <= 1.0, axis=-1)
-        return np.where(maximum[:, None], joint, axes)
+        return peak_offsets(near.astype(float).reshape(-1, 3, 3))
 
     def _side_lobe_levels(self, image: np.ndarray, row: np.ndarray, k: np.ndarray) -> np.ndarray:
         """(P,) the largest side-lobe level that a grid direction outside the main lobe of cell
@@ -361,35 +327,12 @@ class ReceiveImager:
         snr = self.settings.detection_snr if detection_snr is None else detection_snr
         check_positive("detection_snr", snr)
         band, g = self.band, self.geometry
-        centre, rms_bandwidth = band.band_moments()
         first = np.mean(self._min_path[self.in_fov]) / self.c - start_time  # [s] from sample 0
-        duration = max((n_samples - 1) / band.sample_rate - first, 0.0)
-        time_length = duration * 2 * np.pi * rms_bandwidth  # L_1 of the window
-        # The field of view's outline in direction cosines, in the field's metric there: the
-        # mean square wavenumber times the covariance of the receive elements' positions.
-        metric = (2 * np.pi / self.c) ** 2 * (centre**2 + rms_bandwidth**2) \
-            * np.cov(g.rx_positions[:, :2].T, bias=True)
+        duration = (n_samples - 1) / band.sample_rate - first
         h, v = np.tan(g.fov_horizontal / 2), np.tan(g.fov_vertical / 2)
         corners = np.array([(-h, -v), (h, -v), (h, v), (-h, v), (-h, -v)])
         steps = np.linspace(0.0, 1.0, 256, endpoint=False)[:, None, None]
         outline = (corners[:-1] + steps * (corners[1:] - corners[:-1])).transpose(1, 0, 2)
         outline = outline.reshape(-1, 2)  # tangents of the angles, around the field of view
         u = outline / np.sqrt(1.0 + np.sum(outline**2, axis=1, keepdims=True))
-        w = u @ np.linalg.cholesky(metric)  # |w| is the metric length
-        x, y = w[:, 0], w[:, 1]
-        area = 0.5 * abs(np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y))
-        half_perimeter = 0.5 * np.sum(np.linalg.norm(w - np.roll(w, -1, axis=0), axis=1))
-        # Lipschitz-Killing curvatures of (field of view) x (window), and the EC densities of a
-        # chi-square field with 2 degrees of freedom at t = 2 snr^2.
-        lkc = [1.0, half_perimeter + time_length, area + half_perimeter * time_length,
-               area * time_length]
-        t = 2 * snr**2
-        tail = np.exp(-t / 2)
-        density = [tail, np.sqrt(t) * tail / np.sqrt(2 * np.pi), (t - 1) * tail / (2 * np.pi),
-                   np.sqrt(t) * (t - 3) * tail / (2 * np.pi) ** 1.5]
-        return float(np.dot(lkc, density))
-
-
-def _unit_direction(u_xy: np.ndarray) -> np.ndarray:
-    """Unit vectors (P, 3) towards +z with direction cosines ``u_xy`` (P, 2)."""
-    return np.concatenate([u_xy, np.sqrt(1.0 - np.sum(u_xy**2, axis=1, keepdims=True))], axis=1)
+        return expected_blobs(snr, u, duration, band, g.rx_positions, self.c)

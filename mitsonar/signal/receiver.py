@@ -61,6 +61,9 @@ Order and choices:
   o_R, as it always has; at 1-4 m that puts its points about 8 mm aside, along c - o_R.) The
   strongest echo of each beam is its :class:`~mitsonar.signal.detection.Detections` entry; all
   are in :class:`~mitsonar.signal.detection.Echoes`.
+* Receive images over each beam's lit cone (``echoes`` = "image", :mod:`mitsonar.signal.cone`):
+  echoes and range cells chosen on where each beam's cone image peaks, checked and placed at
+  that direction; reported as "cells" are.
 """
 
 from __future__ import annotations
@@ -72,9 +75,10 @@ import numpy as np
 from mitsonar.physics.array import ArrayGeometry
 from mitsonar.signal.band import Band, Recording
 from mitsonar.signal.beamforming import Beamformer, dot
-from mitsonar.signal import multiecho
+from mitsonar.signal import cone, multiecho
 from mitsonar.signal.detection import (Detection, Detections, DetectionSettings, Echoes,
-                                       bistatic_depth, bistatic_point, candidates, vertex)
+                                       bistatic_depth, bistatic_point, candidates,
+                                       local_maxima, vertex)
 
 #: Cross-talk between the waveforms of one recording is followed out to the lags where their
 #: range profiles fall below this (:meth:`EchoProcessor._crosstalk`).
@@ -106,6 +110,7 @@ class EchoProcessor:
         self._filters = {}
         self._profiles = {}
         self._crosstalks = {}
+        self._cone = None
 
     def matched_filter(self, waveform=None):
         """(filter spectrum on the band (nb,), template energy) of a waveform: conj(W) / E,
@@ -217,10 +222,16 @@ class EchoProcessor:
         weakest[beams, look] = strongest[beams, look] = rows[len(u):]
         s = self.settings
         balanced = weakest.min(axis=1) >= s.part_balance * strongest.max(axis=1)
+        image = None
+        if s.echoes == "image":
+            if self._cone is None:
+                self._cone = cone.ConeImager(self.geometry, self.band, self.c, s)
+            image = self._cone.envelopes(self.beamformer, spectra, u, waves.filters[waves.kind], n)
         looks = _Looks(self, spectra, waves, start_time, n) \
-            if s.ghost_margin > 0 or s.arrival_step > 0 else None
+            if s.ghost_margin > 0 or s.arrival_step > 0 or image is not None else None
         return envelopes, self._decide(envelopes, start_time, u, direct_envelopes, waves,
-                                       transmit_times, max_path_length, balanced, looks, shared)
+                                       transmit_times, max_path_length, balanced, looks, shared,
+                                       image)
 
     def detect(self, envelope: np.ndarray, start_time: float, direction,
                direct_envelope: np.ndarray | None = None, waveform=None,
@@ -245,11 +256,12 @@ class EchoProcessor:
                             np.ones(envelopes.shape, bool))[0]
 
     def _decide(self, envelopes, start_time, u, direct_envelopes, waves, transmit_times,
-                max_path_length, balanced, looks=None, shared=False) -> Detections:
+                max_path_length, balanced, looks=None, shared=False, image=None) -> Detections:
         """:class:`Detections` of B beams from their envelopes (B, N) [Pa] (arguments as in
         :meth:`process_beams`; ``balanced`` (B, N): where the parts are balanced; ``shared``:
-        one recording for all). With the beams' looks, the side-lobe check and the arrival
-        direction; without, every candidate is taken to arrive along its beam."""
+        one recording for all; ``image`` (B, G, N): their cones' images, for "image"). With the
+        beams' looks, the side-lobe check and the arrival direction; without, every candidate
+        is taken to arrive along its beam."""
         s, g = self.settings, self.geometry
         fs = self.band.sample_rate
         count, n = envelopes.shape
@@ -269,7 +281,14 @@ class EchoProcessor:
         if not np.all(np.any(window, axis=1)):
             raise ValueError("the recording ends before the minimum range")
         loud = envelopes > threshold
-        if s.echoes == "first":
+        apparent = None
+        if s.echoes == "image":
+            if image is None or looks is None:
+                raise ValueError("DetectionSettings.echoes = 'image' needs the channels")
+            crosstalk = self._crosstalk(u, waves, transmit) if shared else None
+            envelopes, beams, samples, cells, apparent = self._cone_echoes(
+                image, threshold, window, u, waves, looks, crosstalk)
+        elif s.echoes == "first":
             beams, samples = self._strongest_echoes(envelopes, window & loud & balanced, u,
                                                     looks)
             cells = (np.zeros(0, np.int64),) * 2
@@ -278,7 +297,7 @@ class EchoProcessor:
             beams, samples, cells = self._every_echo(envelopes, loud, window, balanced, u, waves,
                                                      looks, crosstalk)
         return self._report(envelopes, threshold, window, start_time, transmit, u, waves, looks,
-                            beams, samples, cells)
+                            beams, samples, cells, apparent)
 
     def _strongest_echoes(self, envelopes, accepted, u, looks):
         """(beams, samples) of each beam's strongest candidate that arrives along it, by beam
@@ -310,11 +329,8 @@ class EchoProcessor:
         s = self.settings
         lobes, resolution = waves.range_profiles(self)
         resolution = resolution[waves.kind]
-        peaks = np.zeros(envelopes.shape, bool)
-        peaks[:, 1:-1] = (envelopes[:, 1:-1] >= envelopes[:, :-2]) \
-            & (envelopes[:, 1:-1] > envelopes[:, 2:])
         clutter = multiecho.Clutter(lobes, waves.kind, crosstalk)
-        found, resolved = multiecho.echo_peaks(envelopes, peaks & loud, window & balanced,
+        found, resolved = multiecho.echo_peaks(envelopes, local_maxima(envelopes) & loud, window & balanced,
                                                resolution, clutter, s.clutter_margin)
         found = self._along_beam(looks, u, *found)
         cells = (np.zeros(0, np.int64),) * 2
@@ -323,6 +339,29 @@ class EchoProcessor:
                                           resolution, clutter, s.clutter_margin)
             cells = self._along_beam(looks, u, *cells)
         return found[0], found[1], cells
+
+    def _cone_echoes(self, image, threshold, window, u, waves, looks, crosstalk):
+        """(profile M (B, N) [Pa], beams, samples of the echoes, (beams, samples) of the range
+        cells, (E, 2) direction cosines where each row's image peaks) of B beams' cone images
+        (``echoes`` = "image", :mod:`mitsonar.signal.cone`): rows kept where every part of the
+        code is there at that direction and it passes the side-lobe check there."""
+        s = self.settings
+        lobes, resolution = waves.range_profiles(self)
+        profile, found, cells, best = cone.cone_echoes(
+            self._cone, image, threshold, window, resolution[waves.kind],
+            multiecho.Clutter(lobes, waves.kind, crosstalk), s.clutter_margin)
+        beams, samples = (np.concatenate(x) for x in zip(found, cells))
+        apparent = cone.apparent_directions(self._cone, image, u, beams, samples, best)
+        directions = cone.unit_direction(apparent)
+        passed = cone.parts_balanced(self.beamformer, looks, beams, samples, directions,
+                                     s.part_balance)
+        if s.ghost_margin > 0:
+            todo = np.flatnonzero(passed)
+            passed[todo] = self._pass_side_lobe_check(looks, directions[todo], beams[todo],
+                                                      samples[todo], np.arange(len(todo)))
+        echo = passed & (np.arange(len(beams)) < len(found[0]))
+        return (profile, beams[echo], samples[echo], (beams[passed & ~echo],
+                samples[passed & ~echo]), np.concatenate([apparent[echo], apparent[passed & ~echo]]))
 
     def _crosstalk(self, u, waves, transmit):
         """(|X| (K, K, 2 S + 1), transmit and receive gains (B, B), firing times (B,) [samples])
@@ -358,12 +397,13 @@ class EchoProcessor:
         return beams[passed], samples[passed]
 
     def _report(self, envelopes, threshold, window, start_time, transmit, u, waves, looks,
-                beams, samples, cells) -> Detections:
+                beams, samples, cells, apparent=None) -> Detections:
         """:class:`Detections` and :class:`Echoes` of B beams from their echoes (beams,
         samples), by beam and then by decreasing amplitude, and their range cells (beams,
         samples): each placed (time of arrival, arrival direction, bistatic depth (7)); with
-        ``echoes`` = "all" or "cells", kept where their direction is trustworthy
-        (``min_coherence``)."""
+        ``echoes`` = "all", "cells" or "image", kept where their direction is trustworthy
+        (``min_coherence``). ``apparent`` (E, 2): "image"'s directions, echoes then cells
+        (:func:`~mitsonar.signal.cone.place`)."""
         s, g = self.settings, self.geometry
         fs = self.band.sample_rate
         count = len(envelopes)
@@ -375,15 +415,18 @@ class EchoProcessor:
         toa = start_time - transmit[beams] + sample / fs
         l = self.c * toa
         coherence = np.full(len(beams), np.nan)
-        if looks is not None and s.arrival_step > 0 and len(beams):  # (7) from the receive side
+        if looks is not None and (s.arrival_step > 0 or apparent is not None) and len(beams):
             look, row = np.nonzero(waves.looks[beams].T >= 0)  # every row's first look first
             sets = looks.sets(beams[row], look)
             carriers = waves.carriers[waves.looks[beams[row], look]]
-            arrival = self.beamformer.arrival_directions(looks.channels, sets, carriers, row,
-                                                         sample, u[beams])
+            arrival = self.beamformer.arrival_directions(
+                looks.channels, sets, carriers, row, sample, u[beams]) if apparent is None \
+                else cone.unit_direction(apparent)  # where the plane-wave beams peak
             coherence = self.beamformer.coherence(looks.channels, sets, carriers, row, sample,
                                                   arrival)
-            if s.echoes == "first":  # placed from the receive origin, as ever
+            if apparent is not None:  # (7) from the receive origin, near field corrected
+                point, arrival = cone.place(g, np.zeros(3), l, apparent)
+            elif s.echoes == "first":  # placed from the receive origin, as ever
                 receive_range = bistatic_depth(l, g.baseline,
                                                -dot(arrival, g.rx_origin) / g.baseline)
                 point = g.rx_origin + receive_range[:, None] * arrival
@@ -426,11 +469,13 @@ class EchoProcessor:
             out[name][found] = value if np.ndim(value) == 0 else value[first]
         return Detections(**out, echoes=table)
 
-    def _pass_side_lobe_check(self, looks, u, beams, samples) -> np.ndarray:
-        """(E,) True where candidate sample ``samples[e]`` of beam ``beams[e]`` arrives along the
-        beam in every look (:meth:`Beamformer.off_beam
-        <mitsonar.signal.beamforming.Beamformer.off_beam>`), looks checked one after another: a
-        candidate rejected in one is not checked in the next."""
+    def _pass_side_lobe_check(self, looks, u, beams, samples, rows=None) -> np.ndarray:
+        """(E,) True where candidate sample ``samples[e]`` of beam ``beams[e]`` arrives along
+        ``u[beams[e]]`` (the beam's direction), or ``u[rows[e]]`` if ``rows`` are given, in every
+        look (:meth:`Beamformer.off_beam <mitsonar.signal.beamforming.Beamformer.off_beam>`),
+        looks checked one after another: a candidate rejected in one is not checked in the
+        next."""
+        rows = beams if rows is None else rows
         table = looks.waves.looks
         passed = np.ones(len(beams), bool)
         for look in range(table.shape[1]):
@@ -440,7 +485,7 @@ class EchoProcessor:
                 sets = looks.sets(b, look)
                 passed[todo] = ~self.beamformer.off_beam(looks.channels, sets, samples[todo],
                                                          looks.waves.carriers[table[b, look]],
-                                                         u[b])
+                                                         u[rows[todo]])
         return passed
 
 

@@ -11,14 +11,12 @@ import numpy as np
 import pytest
 
 import mitsonar
-from helpers import IDENTITY
+from helpers import (IDENTITY, TILT, TILT_DISTANCE, TILT_NORMAL, noise_beams, side_plate,
+                     tilted_footprint, tilted_plane)
 from mitsonar.frames import direction_from_fov_angles
-from mitsonar.physics.beampattern import main_lobe_width, one_way_pattern
-from mitsonar.scene.xml import (material_xml, rectangle_xml, spanned_rectangle_xml, sphere_xml,
-                                write_scene)
+from mitsonar.scene.xml import material_xml, sphere_xml, write_scene
 from mitsonar.signal import multiecho
 from mitsonar.signal.multiecho import expected_false_alarms
-from mitsonar.signal.synthesis import EchoSynthesizer
 from mitsonar.sensors.sonar import PRE_ROLL
 from mitsonar.signal.band import Band, Recording
 from mitsonar.signal.ofdm import code_set
@@ -223,24 +221,14 @@ def test_points_across_a_plane_tilted_45_deg(scene_file):
     lobe's edges, where the beam's slope biases the arrival direction towards its axis) they lie
     within 2 cm. Measured over seeds 0-9: 3-7 points, span 65-120 %, inside the footprint at most
     8.5 mm off, outside 11.7 mm."""
-    tilt = np.radians(45.0)
-    normal = np.array([np.sin(tilt), 0.0, np.cos(tilt)])
-    distance = 1.5
-    scene = scene_file("tilted", material_xml("w", preset="concrete"),
-                       rectangle_xml("w", (0, 0, distance), (0, 45, 0), size=(3.0, 3.0)))
+    scene = tilted_plane(scene_file)
     config = mitsonar.SonarConfig(transducer=mitsonar.Transducer(bandwidth_6db=20e3),
                                   pulse=mitsonar.Pulse(cycles=4),
                                   detection=mitsonar.DetectionSettings(echoes="cells"))
     table = mitsonar.Sonar(scene, config).scan(IDENTITY, [[0.0, 0.0, 1.0]], seed=0).echo_table
-    off_plane = np.abs((table.point - [0.0, 0.0, distance]) @ normal)
-    along = table.point[:, 0] / np.cos(tilt)  # position along the tilt, on the plane [m]
-    # The -3 dB footprint of the transmit beam along the tilt (x), on the plane z = d - x.
-    g, k = config.geometry, 2 * np.pi * config.pulse.frequency / config.medium.speed_of_sound
-    angles = np.radians(np.linspace(-10.0, 10.0, 2001))
-    half = main_lobe_width(angles, one_way_pattern(
-        g.tx_positions, [0.0, 0.0, 1.0], direction_from_fov_angles(angles, 0.0 * angles),
-        config.transducer, k)) / 2
-    ends = distance * np.sin([-half, half]) / (np.sin([-half, half]) + np.cos(half)) / np.cos(tilt)
+    off_plane = np.abs((table.point - [0.0, 0.0, TILT_DISTANCE]) @ TILT_NORMAL)
+    along = table.point[:, 0] / np.cos(TILT)  # position along the tilt, on the plane [m]
+    ends = tilted_footprint(config)  # the transmit beam's -3 dB footprint along the tilt
     inside = (along >= ends[0]) & (along <= ends[1])
     assert inside.sum() >= 2 and np.all(off_plane[inside] <= 0.01), (along, off_plane)
     assert np.all(off_plane <= 0.02), off_plane
@@ -256,14 +244,8 @@ def test_noise_alone_gives_the_design_false_alarm_rate():
     gives no echo (measured: none)."""
     eta = 2.0
     receiver = processor(mitsonar.DetectionSettings())
-    band = receiver.band
-    synth = EchoSynthesizer(band)
-    noise = [synth.recording(np.zeros((CONFIG.geometry.rx.count, band.n_samples)),
-                             CONFIG.noise_rms, seed=[11, b]) for b in range(117)]
-    directions = CONFIG.geometry.fov_grid(np.radians(5.0))
-    window = band.n_samples / band.sample_rate + band.start_time \
-        - 2 * receiver.settings.min_range / receiver.c  # [s] (to a few samples)
-    design = expected_false_alarms(eta, band.band_moments()[1], window)
+    noise, directions, window = noise_beams(receiver, CONFIG)
+    design = expected_false_alarms(eta, receiver.band.band_moments()[1], window)
     counted = {}
     for checks in (False, True):
         off = {} if checks else dict(ghost_margin=0.0, min_coherence=0.0)
@@ -280,12 +262,7 @@ def test_no_point_where_nothing_is_in_the_beam(scene_file):
     beams that point elsewhere through their side lobes, up to 1100 x the noise threshold. Every
     setting reports no point in those beams, and the plate's own beam gets its point at 1.5 m
     (within 5 mm)."""
-    centre = 1.5 * direction_from_fov_angles(np.radians(20.0), 0.0)
-    normal = -centre / np.linalg.norm(centre)
-    across = np.cross([0.0, 1.0, 0.0], normal)
-    scene = scene_file("plate", material_xml("m", preset="metal", scattering=0.0),
-                       spanned_rectangle_xml("m", centre, across, np.cross(normal, across),
-                                             (0.4, 0.4)))
+    scene = side_plate(scene_file)
     directions = direction_from_fov_angles(np.radians([-10.0, 0.0, 5.0, 8.0, 20.0]),
                                            np.radians([0.0, 0.0, 10.0, 0.0, 0.0]))
     for mode in ("first", "all", "cells"):

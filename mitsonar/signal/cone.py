@@ -1,0 +1,277 @@
+"""Receive imaging over each beam's lit cone (``DetectionSettings.echoes`` = "image").
+
+A steered transmit beam lights a cone around its axis and suppresses what lies outside it, so
+the receive array, steered across that cone only, images what the beam lights with the two-way
+pattern's low side lobes instead of the receive array's alone (single-ping imaging,
+:mod:`mitsonar.signal.imaging`). For every beam of a scan or OFDM cycle, after its own matched
+filter:
+
+* Grid (:class:`ConeImager`): receive directions u_b + (i, m) s around the beam's axis u_b in
+  direction cosines, s = sin(``image_step``), over the disc of radius sin(``image_half_angle``)
+  (the cone) plus a guard ring of sqrt(2) s (every cone direction has its 8 neighbours). In
+  direction cosines both the transmit and the receive patterns keep their shape wherever they
+  are steered, so one offset grid serves every beam (2 deg and 3 deg: 25 directions, 9 inside
+  the cone). Delay-and-sum (5) on the band: the planar array's phase
+  exp(-j 2 pi f (p_j - o_R) . (u_b + d) / c) is the beam's steering phasor times a phase of the
+  offset d alone, the same for every beam, so all directions of B beams are one batched matrix
+  product per band bin, (B, N_rx) x (N_rx, G); then the beam's matched filter (6) and one
+  inverse FFT per direction (:meth:`ConeImager.envelopes`): the image (B, G, N), each row the
+  envelope :class:`~mitsonar.signal.receiver.EchoProcessor` forms towards that direction.
+* Peak (:func:`cone_peaks`): at every sample, the largest value of the image over the cone and
+  its direction, the beam's profile M (B, N). Echoes and range cells are chosen on M as for
+  "cells" (:mod:`mitsonar.signal.multiecho`: over the noise threshold, over ``clutter_margin``
+  times the range side lobes of stronger echoes and the other codes' cross-talk, range cells
+  every ceil(tau_r) across extended echoes), where that value is a peak: none of its 8
+  neighbours, those on the guard ring included, is larger (an echo from outside the cone, lit by
+  the transmit side lobes, rises towards the rim: no point).
+* Checks at the peak direction, with the receiver's looks (each part of a code matched-filtered
+  and demodulated at its tone): every part of the code there with ``part_balance`` of the
+  strongest; the side-lobe check towards the peak direction (no direction of the +-50 deg
+  ghost grid outside its receive main lobe ``ghost_margin`` stronger at that instant: a return
+  from elsewhere leaking through the receive side lobes); the direction's trust (``coherence``
+  >= ``min_coherence``).
+* Placement (:func:`place`): the direction refined between grid directions by the vertex of the
+  quadratic through the log of the image at the peak and its 8 neighbours
+  (:func:`peak_offsets`), corrected for the near field of the receive aperture
+  (:func:`near_field_shift`), and the bistatic depth (7) solved from the receive origin o_R along
+  it, as single-ping imaging places its points.
+* False alarms (:meth:`ConeImager.expected_false_alarms`): receiver noise alone gives the image
+  of a complex Gaussian field, stationary in time and direction cosines; the design number of
+  points per beam is the expected Euler characteristic of its excursion set above
+  ``detection_snr`` over the cone x the listening window (:func:`expected_blobs`), as for
+  single-ping images, counting only the blobs that peak inside the cone (its volume term: a
+  point needs the image to peak inside the cone, not on its rim). Measured on noise alone
+  (``tests/signal/test_cone_image.py``, 117 beams, 3 x the RMS noise envelope, the side-lobe
+  check, the clutter rule and the trust off): 0.79 of the design (peaks between the 2 deg grid's
+  directions are seen lower); with them on, none.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from mitsonar.physics.array import ArrayGeometry
+from mitsonar.signal.band import Band
+from mitsonar.signal.beamforming import Beamformer, dot
+from mitsonar.signal import multiecho
+from mitsonar.signal.detection import (DetectionSettings, bistatic_depth, local_maxima,
+                                       vertex)
+
+#: Image rows (beams x directions) transformed together (bounds the complex temporaries).
+ROW_BATCH = 256
+
+
+class ConeImager:
+    """Receive images over the lit cones of B beams; built once per receiver.
+
+    Args:
+        geometry: the arrays (a planar receive array: every element at the same z).
+        band: the recordings' band.
+        speed_of_sound: c [m/s].
+        settings: ``image_step`` and ``image_half_angle``.
+    """
+
+    def __init__(self, geometry: ArrayGeometry, band: Band, speed_of_sound: float,
+                 settings: DetectionSettings):
+        offsets = geometry.rx_positions - geometry.rx_origin
+        if np.ptp(offsets[:, 2]) > 1e-9:
+            raise ValueError("DetectionSettings.echoes = 'image' needs a planar receive array")
+        self.band = band
+        self.c = float(speed_of_sound)
+        #: Grid spacing and cone radius in direction cosines.
+        self.spacing = float(np.sin(settings.image_step))
+        self.radius = float(np.sin(settings.image_half_angle))
+        guard = self.radius / self.spacing + np.sqrt(2.0)  # [grid steps]
+        h = int(np.floor(guard))
+        steps = np.arange(-h, h + 1)
+        my, mx = np.meshgrid(steps, steps, indexing="ij")
+        kept = np.hypot(mx, my) <= guard + 1e-9
+        #: (G, 2) offsets of the grid's directions from a beam's axis, direction cosines.
+        self.offsets = np.stack([mx[kept], my[kept]], axis=-1) * self.spacing
+        #: (G,) the directions inside the cone (the others are its guard ring).
+        self.inside = np.hypot(mx[kept], my[kept]) * self.spacing <= self.radius + 1e-12
+        lookup = np.full(mx.shape, -1)
+        lookup[kept] = np.arange(kept.sum())
+        pad = np.pad(lookup, 1, constant_values=-1)
+        #: (G, 3, 3) each direction's neighbours [dy, dx] (-1 beyond the grid; never for the
+        #: cone's directions).
+        self.neighbours = np.stack([pad[1 + dy:1 + dy + len(steps), 1 + dx:1 + dx + len(steps)]
+                                    [kept] for dy in (-1, 0, 1) for dx in (-1, 0, 1)],
+                                   axis=-1).reshape(-1, 3, 3)
+        # exp(-j 2 pi f (p_j - o_R) . d / c) / N_rx of every offset d, (nb, N_rx, G).
+        delays = offsets[:, :2] @ self.offsets.T / self.c  # (N_rx, G) [s]
+        self._offset_phases = (np.exp(-2j * np.pi * band.frequencies[:, None, None] * delays)
+                               / len(offsets)).astype(np.complex64)
+
+    def envelopes(self, beamformer: Beamformer, spectra: np.ndarray, directions: np.ndarray,
+                  filters: np.ndarray, n: int) -> np.ndarray:
+        """Image (B, G, n) [Pa], float32: the matched-filtered delay-and-sum envelopes of channel
+        spectra on the band, (N_rx, nb) shared or (B, N_rx, nb) one set per beam, towards every
+        grid direction around each beam's axis ``directions`` (B, 3), beam b filtered by
+        ``filters[b]`` (B, nb)."""
+        steered = (spectra * beamformer.steering(directions)).astype(np.complex64)  # (B, N_rx, nb)
+        formed = np.matmul(steered.transpose(2, 0, 1), self._offset_phases)  # (nb, B, G)
+        formed = (formed.transpose(1, 2, 0) * filters[:, None, :]).reshape(-1, formed.shape[0])
+        out = np.empty((len(formed), n), np.float32)
+        for first in range(0, len(formed), ROW_BATCH):  # bounded inverse FFTs
+            rows = slice(first, first + ROW_BATCH)
+            out[rows] = np.abs(self.band.to_analytic(formed[rows])[:, :n])
+        return out.reshape(len(directions), len(self.offsets), n)
+
+    def expected_false_alarms(self, detection_snr: float, duration: float,
+                              rx_positions: np.ndarray, waveform=None) -> float:
+        """Design number of points that receiver noise alone gives a beam over ``duration`` [s]
+        of its window at ``detection_snr`` (module docstring): :func:`expected_blobs` over the
+        cone, for receive elements at ``rx_positions`` (N_rx, 3) [m] and the matched-filter
+        output of ``waveform`` (default: the band's pulse)."""
+        angle = np.linspace(0.0, 2 * np.pi, 1024, endpoint=False)
+        outline = self.radius * np.stack([np.cos(angle), np.sin(angle)], axis=-1)
+        return expected_blobs(detection_snr, outline, duration, self.band, rx_positions, self.c,
+                              waveform, interior=True)
+
+
+def parts_balanced(beamformer: Beamformer, looks, beams: np.ndarray, samples: np.ndarray,
+                   directions: np.ndarray, part_balance: float) -> np.ndarray:
+    """(E,) True where every part of the code of beam ``beams[e]`` is there at sample
+    ``samples[e]`` towards ``directions[e]`` (E, 3) with at least ``part_balance`` of the
+    strongest part's beam (a waveform without parts passes): the narrow-band beams of the
+    receiver's looks (:class:`~mitsonar.signal.receiver.EchoProcessor`'s, each part
+    matched-filtered and demodulated at its tone), a code's two parts in turn."""
+    waves = looks.waves
+    table = waves.looks[beams]
+    part = np.zeros(table.shape)
+    for look in range(table.shape[1]):  # a code's parts (two at most)
+        rows = np.flatnonzero(table[:, look] >= 0)
+        sets = looks.sets(beams[rows], look)
+        part[rows, look] = np.abs(beamformer.aligned(
+            looks.channels, sets, waves.carriers[table[rows, look]], samples[rows],
+            directions[rows]).sum(axis=1))
+    weakest = np.where(table >= 0, part, np.inf).min(axis=1)
+    return ~waves.has_parts[beams] | (weakest >= part_balance * part.max(axis=1))
+
+
+def cone_peaks(imager: ConeImager, image: np.ndarray):
+    """(profile M (B, N) [Pa], peak direction index (B, N), whether it is a peak (B, N)) of an
+    image (B, G, N): at every sample the largest value over the cone, where it lies, and whether
+    none of its 8 neighbours (the guard ring's too) is larger."""
+    cone = np.flatnonzero(imager.inside)
+    best = cone[np.argmax(image[:, cone], axis=1)]
+    profile = np.take_along_axis(image, best[:, None, :], axis=1)[:, 0]
+    around = imager.neighbours[best].reshape(best.shape + (9,)).transpose(0, 2, 1)  # (B, 9, N)
+    peak = profile >= np.take_along_axis(image, around, axis=1).max(axis=1)
+    return profile.astype(float), best, peak
+
+
+def apparent_directions(imager: ConeImager, image: np.ndarray, axes: np.ndarray, beams, samples,
+                        best: np.ndarray) -> np.ndarray:
+    """(E, 2) direction cosines (u_x, u_y) where the plane-wave beams of rows (beams, samples)
+    (E,) peak: the grid direction ``best[beams, samples]`` around axis ``axes[beams]`` (B, 3),
+    refined by :func:`peak_offsets` (its 8 neighbours lie in the grid: it is inside the cone)."""
+    d = best[beams, samples]
+    near = image[beams[:, None, None], imager.neighbours[d], samples[:, None, None]]
+    offset = peak_offsets(np.log(np.maximum(near.astype(float), 1e-30)))
+    return axes[beams, :2] + imager.offsets[d] + imager.spacing * offset
+
+
+def peak_offsets(near: np.ndarray) -> np.ndarray:
+    """(P, 2) offsets [grid steps] along u_x and u_y of the main-lobe peaks of log-powers ``near``
+    (P, 3, 3) [p, y, x] around a grid direction: the vertex of the quadratic through the 9
+    values (exact for a Gaussian lobe, whose axes need not be the grid's), or, where that has no
+    maximum within a step, of the parabolas along each axis."""
+    gx = 0.5 * (near[:, 1, 2] - near[:, 1, 0])
+    gy = 0.5 * (near[:, 2, 1] - near[:, 0, 1])
+    hxx = near[:, 1, 2] - 2 * near[:, 1, 1] + near[:, 1, 0]
+    hyy = near[:, 2, 1] - 2 * near[:, 1, 1] + near[:, 0, 1]
+    hxy = 0.25 * (near[:, 2, 2] - near[:, 2, 0] - near[:, 0, 2] + near[:, 0, 0])
+    det = hxx * hyy - hxy**2
+    safe = np.where(det > 0, det, 1.0)
+    joint = np.stack([(hxy * gy - hyy * gx) / safe, (hxy * gx - hxx * gy) / safe], axis=-1)
+    axes = np.stack([vertex(near[:, 1, 0], near[:, 1, 1], near[:, 1, 2]),
+                     vertex(near[:, 0, 1], near[:, 1, 1], near[:, 2, 1])], axis=-1)
+    maximum = (det > 0) & (hxx < 0) & np.all(np.abs(joint) <= 1.0, axis=-1)
+    return np.where(maximum[:, None], joint, axes)
+
+
+def near_field_shift(geometry: ArrayGeometry, direction: np.ndarray,
+                     distance: np.ndarray) -> np.ndarray:
+    """(P, 2) what to add to the (u_x, u_y) of the peak of the plane-wave beams (5) to get the
+    direction of a source at ``distance`` (P,) [m] from the receive origin in ``direction``
+    (P, 3). Within the array's far-field distance (2 x (10 cm)^2 / 8.5 mm = 2.3 m) element j
+    hears the source q_j = (|p_j|^2 - (p_j . u)^2) / (2 r) later than a plane wave from u; the
+    beam that best aligns these delays (least squares) peaks C^-1 cov(p, q) before u (C: the
+    covariance of the positions p_j in the array plane)."""
+    p = geometry.rx_positions[:, :2] - geometry.rx_origin[:2]
+    along = direction[:, :2] @ p.T  # (P, N_rx)
+    late = (np.sum(p**2, axis=1) - along**2) / (2 * distance[:, None])
+    centred = p - p.mean(axis=0)
+    covariance = (late - late.mean(axis=1, keepdims=True)) @ centred / len(p)  # (P, 2)
+    return np.linalg.solve(np.cov(p.T, bias=True), covariance.T).T
+
+
+def place(geometry: ArrayGeometry, transmit_centre, path_length: np.ndarray,
+          apparent: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(points (P, 3) [m], arrival directions (P, 3)) of echoes of ``path_length`` (P,) [m]
+    (transmit centre (3,) -> reflector -> receive origin) whose plane-wave beams peak at
+    direction cosines ``apparent`` (P, 2): the near field corrected (:func:`near_field_shift`)
+    and the bistatic depth (7) solved from the receive origin o_R, point = o_R + r u_a."""
+    baseline = np.asarray(transmit_centre, dtype=float) - geometry.rx_origin
+    length = float(np.linalg.norm(baseline))
+    unit = baseline / max(length, 1e-300)
+    arrival = unit_direction(apparent)
+    for _ in range(2):  # (7) and the near-field correction depend on each other, weakly
+        receive_range = bistatic_depth(path_length, length, dot(arrival, unit))
+        arrival = unit_direction(apparent + near_field_shift(geometry, arrival, receive_range))
+    receive_range = bistatic_depth(path_length, length, dot(arrival, unit))
+    return geometry.rx_origin + receive_range[:, None] * arrival, arrival
+
+
+def unit_direction(u_xy: np.ndarray) -> np.ndarray:
+    """Unit vectors (P, 3) towards +z with direction cosines ``u_xy`` (P, 2)."""
+    return np.concatenate([u_xy, np.sqrt(1.0 - np.sum(u_xy**2, axis=1, keepdims=True))], axis=1)
+
+
+def expected_blobs(detection_snr: float, outline: np.ndarray, duration: float, band: Band,
+                   rx_positions: np.ndarray, speed_of_sound: float, waveform=None,
+                   interior: bool = False) -> float:
+    """Expected Euler characteristic of the excursion set above ``detection_snr`` times the RMS
+    of the delay-and-sum envelope of receiver noise, over the region of direction cosines
+    enclosed by ``outline`` (M, 2) (a closed polygon, in order) x ``duration`` [s] (Adler and
+    Taylor; chi-square fields: Worsley 1994): the number of its blobs when the threshold is high.
+    The field's roughness: 2 pi x the rms bandwidth of ``waveform``'s matched-filter output in
+    time; in direction cosines the mean square wavenumber times the covariance of the receive
+    elements' positions ``rx_positions`` (N_rx, 3) [m] in the array plane. ``interior``: only
+    the blobs that peak inside the region x window, its top term L_3 rho_3 (the lower terms
+    count the blobs that peak on its boundary)."""
+    centre, rms_bandwidth = band.band_moments(waveform)
+    time_length = max(duration, 0.0) * 2 * np.pi * rms_bandwidth  # L_1 of the window
+    metric = (2 * np.pi / speed_of_sound) ** 2 * (centre**2 + rms_bandwidth**2) \
+        * np.cov(np.asarray(rx_positions)[:, :2].T, bias=True)
+    w = np.asarray(outline, dtype=float) @ np.linalg.cholesky(metric)  # |w|: metric length
+    x, y = w[:, 0], w[:, 1]
+    area = 0.5 * abs(np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y))
+    half_perimeter = 0.5 * np.sum(np.linalg.norm(w - np.roll(w, -1, axis=0), axis=1))
+    # Lipschitz-Killing curvatures of (region) x (window), and the EC densities of a chi-square
+    # field with 2 degrees of freedom at t = 2 snr^2.
+    lkc = [1.0, half_perimeter + time_length, area + half_perimeter * time_length,
+           area * time_length]
+    t = 2 * float(detection_snr) ** 2
+    tail = np.exp(-t / 2)
+    density = [tail, np.sqrt(t) * tail / np.sqrt(2 * np.pi), (t - 1) * tail / (2 * np.pi),
+               np.sqrt(t) * (t - 3) * tail / (2 * np.pi) ** 1.5]
+    return float(lkc[3] * density[3] if interior else np.dot(lkc, density))
+
+
+def cone_echoes(imager: ConeImager, image: np.ndarray, threshold: np.ndarray, window: np.ndarray,
+                resolution: np.ndarray, clutter, margin: float):
+    """Echoes and range cells of B beams from their images (B, G, N) (module docstring), before
+    the checks at their directions: (profile M (B, N) [Pa], (beams, samples) of the echoes,
+    (beams, samples) of the range cells, peak direction index (B, N)). ``threshold`` (B, N)
+    [Pa], ``window`` (B, N) the listening window; ``resolution``, ``clutter``, ``margin`` as in
+    :func:`~mitsonar.signal.multiecho.echo_peaks`."""
+    profile, best, inside = cone_peaks(imager, image)
+    loud = profile > threshold
+    found, resolved = multiecho.echo_peaks(profile, local_maxima(profile) & loud, window & inside, resolution,
+                                           clutter, margin)
+    cells = multiecho.range_cells(profile, window & loud, inside, resolved, found, resolution,
+                                  clutter, margin)
+    return profile, found, cells, best
