@@ -55,11 +55,11 @@ def _timed(fn, repeat: int = 1):
 #: Stages of the profile: (name, functions whose inclusive times add up, functions subtracted),
 #: functions as (file, name). Disjoint by construction; the rest is "other".
 STAGES = (
-    ("ray casts and refinement", [("tracer.py", "_cast")], []),
-    ("shadow rays", [("tracer.py", "_visibility")], []),
+    ("ray casts and refinement", [("casting.py", "_cast")], []),
+    ("shadow rays", [("casting.py", "_visibility")], []),
     ("element-factor kernel", [("element_factors.py", "element_factors")], []),
     ("rest of the trace (per-hit NumPy)", [("tracer.py", "trace_many")],
-     [("tracer.py", "_cast"), ("tracer.py", "_visibility"),
+     [("casting.py", "_cast"), ("casting.py", "_visibility"),
       ("element_factors.py", "element_factors")]),
     ("narrow-band merge kernel", [("hitpaths.py", "merged")], []),
     ("gridding kernel", [("synthesis.py", "impulse_grid")], []),
