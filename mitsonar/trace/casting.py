@@ -15,6 +15,7 @@ import drjit as dr
 import numpy as np
 from scipy.ndimage import binary_dilation
 
+from mitsonar.frames import orthonormal_basis
 from mitsonar.jit import backend, to_jit
 from mitsonar.physics.array import ArrayGeometry
 from mitsonar.scene.loading import AcousticScene, mitsuba
@@ -93,12 +94,53 @@ class RayCaster:
 
     def _taper(self, a, b):
         """Weight of a ray at tangent-plane offsets (a, b): 1 inside, fading to 0 at the cone edge."""
-        s = self.settings
-        if s.model == "paper":
+        if self.settings.model == "paper":
             return np.ones_like(a)
-        rho = np.hypot(a, b) / np.tan(s.cone_half_angle)
+        return self._fade(np.hypot(a, b) / np.tan(self.settings.cone_half_angle))
+
+    def _fade(self, rho):
+        """Weight at tangent-plane radius ``rho`` in units of the cone's: 1 inside, fading to 0
+        over the outer ``taper`` of the cone."""
+        s = self.settings
         fade = np.clip((1.0 - rho) / s.taper, 0.0, 1.0) if s.taper > 0 else (rho <= 1).astype(float)
         return np.sin(0.5 * np.pi * fade) ** 2
+
+    def _union_weight(self, cos):
+        """Weight of rays whose cosines to the beam axes are ``cos`` (..., B): the largest of the
+        beams' cone weights (:meth:`_fade`), so the union of the cones fades at its edge as each
+        cone does."""
+        tan = np.sqrt(np.maximum(1.0 - cos * cos, 0.0)) / np.where(cos > 0, cos, 1.0)
+        rho = np.where(cos > 0, tan / np.tan(self.settings.cone_half_angle), np.inf)
+        return self._fade(rho).max(axis=-1)
+
+    def _union_grid(self, directions, step: float):
+        """Ray grid over the union of the cones around unit beam axes ``directions`` (B, 3),
+        regular in angle with ``step`` [rad] along both axes of the tangent plane of their mean
+        axis (cells of equal angle, each with its exact tangent-plane widths) and clipped at
+        80 deg from it. Returns the axis u0 (3,), tangent basis e1, e2 (3,), the grid (a, b, wa,
+        wb, inside) for :meth:`_cast_grid`, each (1, n_a, n_b) (inside: a cell whose centre
+        some cone weights), and the cells within ``refine_radius`` of a beam axis (the beams'
+        main lobes, which :meth:`_cast_grid` splits as ``dense``)."""
+        s = self.settings
+        u0 = _unit(directions.mean(axis=0))
+        e1, e2 = orthonormal_basis(u0)
+        along = directions @ u0
+        limit = np.radians(80.0)  # the tangent plane is kept away from 90 deg
+
+        def axis(offsets):
+            angles = np.arctan2(offsets, along)
+            low = max(angles.min() - s.cone_half_angle, -limit)
+            high = min(angles.max() + s.cone_half_angle, limit)
+            edges = np.tan(np.linspace(low, high, max(int(np.ceil((high - low) / step)), 1) + 1))
+            return 0.5 * (edges[1:] + edges[:-1]), np.diff(edges)
+
+        (ca, wa), (cb, wb) = axis(directions @ e1), axis(directions @ e2)
+        aa, bb = np.meshgrid(ca, cb, indexing="ij")
+        da, db = np.meshgrid(wa, wb, indexing="ij")
+        cos = _unit(u0 + aa[..., None] * e1 + bb[..., None] * e2) @ directions.T  # (n_a, n_b, B)
+        inside = self._union_weight(cos) > 0
+        refinable = cos.max(axis=-1) >= np.cos(s.refine_radius)
+        return u0, e1, e2, tuple(x[None] for x in (aa, bb, da, db, inside)), refinable[None]
 
     def _intersect(self, origins, directions):
         """First non-transparent hit of rays (world frame).
@@ -224,7 +266,7 @@ class RayCaster:
         return visible.reshape(len(points), len(rx)).astype(float)
 
 
-    def _cast_grid(self, rotation, translation, u, e1, e2, grid, refinable):
+    def _cast_grid(self, rotation, translation, u, e1, e2, grid, refinable, dense=None):
         """Cast the rays of G grids of cells, grid g around axis u[g] (G, 3) with tangent basis
         e1[g], e2[g] from pose (rotation[g] (3, 3), translation[g] (3,)), and refine them.
 
@@ -232,6 +274,7 @@ class RayCaster:
             grid: (a, b, wa, wb, inside), each (G, n_a, n_b): cell centres and widths in the
                 tangent plane, and the cells traced.
             refinable: (G, n_a, n_b) cells that may be split at silhouettes (or None).
+            dense: (G, n_a, n_b) cells split whatever they hit (or None).
         Returns:
             The rays kept (each grid's cells in grid order, then its sub-rays), as arrays over
             rays: tangent offsets a, b and widths wa, wb, directions d (sensor frame),
@@ -254,6 +297,8 @@ class RayCaster:
         if m > 1 and s.model == "physical":
             split = (self._refine_mask(inside, t.reshape(shape), n_w.reshape(shape + (3,)),
                                        shapes.reshape(shape)) & refinable).ravel()
+            if dense is not None:
+                split |= (dense & inside).ravel()
             if np.any(split):
                 keep &= ~split
                 frac = (np.arange(m) + 0.5) / m - 0.5

@@ -87,6 +87,11 @@ class TraceSettings:
         paper_spacing: reflector spacing of the paper model [rad].
         paper_grid: reflectors per axis of the paper model.
         paper_beta: the paper's beta (scattered energy fraction).
+        shared_ray_step: angle between neighbouring rays of a trace shared by several beams
+            (:meth:`AcousticTracer.trace_union`) outside the beams' main lobes [rad]; within
+            ``refine_radius`` of a beam axis ``refine`` times denser. The default, 2 deg and
+            0.67 deg in the main lobes, is as dense as a beam's own grid (2.5 deg outside its
+            main lobe, 0.43-0.6 deg within 4 deg of its axis).
     """
 
     model: str = "physical"
@@ -107,6 +112,7 @@ class TraceSettings:
     paper_beta: float = 1.0
     ray_density: str = "beam"
     transmit_weights: tuple | None = None
+    shared_ray_step: float = np.radians(2.0)
 
     def __post_init__(self):
         if self.model not in ("physical", "paper"):
@@ -129,6 +135,7 @@ class TraceSettings:
         if self.ray_density not in ("beam", "uniform"):
             raise ValueError(f"TraceSettings.ray_density must be 'beam' or 'uniform', "
                              f"got {self.ray_density!r}")
+        check_range("TraceSettings.shared_ray_step [rad]", self.shared_ray_step, 1e-3, 0.2)
         if self.transmit_weights is not None:
             weights = tuple(float(w) for w in np.ravel(self.transmit_weights))
             check_finite("TraceSettings.transmit_weights", np.array(weights))
@@ -153,6 +160,33 @@ class TraceResult:
     hit_materials: np.ndarray
     ray_count: int
 
+
+
+@dataclass(frozen=True)
+class HitPatches:
+    """First-bounce surface patches of a trace shared by several beams
+    (:meth:`AcousticTracer.trace_union`), in the world frame, so that element factors can be
+    computed for any pose of the array nearby (:meth:`AcousticTracer.patch_paths`).
+
+    Attributes:
+        points: (H, 3) patch centres [m].
+        normals: (H, 3) unit normals, facing the rays that hit them.
+        edges: (H, 2, 3) patch edges [m].
+        materials: (H,) material index (into ``AcousticScene.materials``).
+        weight: (H,) weight of the union of the beams' cones (1 inside, fading at its edge).
+        roughness: (H,) unit phasors of the diffuse parts.
+        pose: the world-from-sensor pose traced from.
+        ray_count: rays traced.
+    """
+
+    points: np.ndarray
+    normals: np.ndarray
+    edges: np.ndarray
+    materials: np.ndarray
+    weight: np.ndarray
+    roughness: np.ndarray
+    pose: Pose
+    ray_count: int
 
 
 class AcousticTracer(RayCaster):
@@ -198,12 +232,24 @@ class AcousticTracer(RayCaster):
         zc = self._z2[mats] * np.maximum(cos_incidence, 0.0)  # mats broadcasts against cos
         return (zc - self._z_air) / (zc + self._z_air)
 
-    def _scatter(self, points, normals, mats, d_in, dd1, dd2, t_unfold, mirror, steering,
-                 extra_gain, visible, roughness) -> HitPaths:
+    def _patch_edges(self, d_in, normals, dd1, dd2, t_unfold) -> np.ndarray:
+        """(H, 2, 3) edges of the patches [m]: the rays' cells (differentials dd1, dd2 (H, 3) of
+        the unit directions d_in, unfolded path lengths t_unfold (H,)) projected on the tangent
+        planes of the hits (zero for the paper model's point reflectors)."""
+        edges = np.zeros((len(d_in), 2, 3))
+        if self.settings.model == "physical":
+            d_dot_n = _rows_dot(d_in, normals)[:, None]
+            for k, dd in enumerate((dd1, dd2)):
+                edges[:, k] = t_unfold[:, None] * (dd - d_in * _rows_dot(dd, normals)[:, None] / d_dot_n)
+        return edges
+
+    def _scatter(self, points, normals, mats, edges, mirror, steering, extra_gain, visible,
+                 roughness) -> HitPaths:
         """Paths re-radiated by patches (see module docstring). All inputs are per hit
-        (``roughness``: (H,) unit phasors of the diffuse part, see :meth:`_roughness`;
-        ``mirror``: None, or the plane (points, normals) (H, 3) the transmit array is mirrored
-        in for unfolded bounces).
+        (``edges``: (H, 2, 3) from :meth:`_patch_edges`; ``roughness``: (H,) unit phasors of the
+        diffuse part, see :meth:`_roughness`; ``mirror``: None, or the plane (points, normals)
+        (H, 3) the transmit array is mirrored in for unfolded bounces; ``steering``: (H, N_tx)
+        firing delays [s], or None: unsteered).
 
         Incidence and emergence angles, reflection coefficients and the phase gradient of the
         patch integral are evaluated per transmit and receive element
@@ -212,15 +258,10 @@ class AcousticTracer(RayCaster):
         """
         g = self.geometry
         physical = self.settings.model == "physical"
-        edges = np.zeros((len(points), 2, 3))
-        if physical:  # patch edges on the tangent plane from the ray differentials (unfolded)
-            d_dot_n = _rows_dot(d_in, normals)[:, None]
-            for k, dd in enumerate((dd1, dd2)):
-                edges[:, k] = t_unfold[:, None] * (dd - d_in * _rows_dot(dd, normals)[:, None] / d_dot_n)
         area = _length(np.cross(edges[:, 0], edges[:, 1]))
         # Patch integral of exp(-j k (r_i + r_j)) over the parallelogram: A sinc(.) sinc(.), the
         # phase gradient being w_i + v_j; the sinc arguments split into TX and RX parts.
-        edges *= 0.5 * self.k / np.pi  # np.sinc(x) = sin(pi x) / (pi x)
+        edges = edges * (0.5 * self.k / np.pi)  # np.sinc(x) = sin(pi x) / (pi x)
         common = dict(ka=self.k * self.transducer.radius, log_attenuation=self._log_attenuation,
                       speed_of_sound=self.c)
         tx = element_factors(points, normals, edges, g.tx_positions,
@@ -298,8 +339,9 @@ class AcousticTracer(RayCaster):
         dd2 = (e2[hb] - d_h * _rows_dot(d_h, e2[hb])[:, None]) * inv * wb[hit][:, None]
         steering = g.steering_delays(u, self.c)[hb]  # (H, N_tx)
         rngs = [np.random.default_rng(seed) for seed in seeds]
-        parts = [(hb, self._scatter(x, n, mats_h, d_h, dd1, dd2, t[hit], None, steering,
-                                    taper.astype(complex), visible, self._roughness(mats_h, hb, rngs)))]
+        edges = self._patch_edges(d_h, n, dd1, dd2, t[hit])
+        parts = [(hb, self._scatter(x, n, mats_h, edges, None, steering, taper.astype(complex),
+                                    visible, self._roughness(mats_h, hb, rngs)))]
         if s.max_bounces == 2 and s.model == "physical":
             parts += self._second_bounce(rotation, translation, hb, x, n, mats_h, d_h, dd1, dd2,
                                          t[hit], taper, steering, rngs)
@@ -312,6 +354,62 @@ class AcousticTracer(RayCaster):
             paths = HitPaths.concatenate([part.select(r) for (_, part), r in zip(parts, rows)])
             results.append(TraceResult(paths, x[rows[0]], mats_h[rows[0]], int(ray_count[k])))
         return results
+
+    def shares_hits(self) -> bool:
+        """Whether :meth:`trace_union` serves these settings: the physical model, single
+        scattering, every transmit element at weight 1 (the paper's point reflectors are placed
+        per beam; specular multipath and weights are traced per beam)."""
+        s = self.settings
+        return s.model == "physical" and s.max_bounces == 1 and self._weights is None
+
+    def trace_union(self, sensor_pose: Pose, directions, seed: int = 0) -> HitPatches:
+        """Trace the union of the cones around beam directions (B, 3) (sensor frame) once, for
+        beams that share their hits: what a beam's echo depends on is the scene seen from the
+        pose, its steering only weights the elements. The grid is regular in angle, cells of
+        ``shared_ray_step``, each split into ``refine`` x ``refine`` rays within
+        ``refine_radius`` of a beam axis (the main lobes, where a beam's own grid is densest).
+
+        Args:
+            sensor_pose: world-from-sensor pose.
+            directions: the beam directions whose cones are traced.
+            seed: seed of the diffuse phases (same seed, same patches).
+        """
+        if not self.shares_hits():
+            raise ValueError("trace_union needs the physical model, max_bounces=1 and no "
+                             "transmit_weights")
+        u = _unit(np.asarray(directions, dtype=float).reshape(-1, 3))
+        u0, e1, e2, grid, refinable = self._union_grid(u, self.settings.shared_ray_step)
+        rotation, translation = sensor_pose.rotation, sensor_pose.translation
+        (a, b, wa, wb, d, norm_v, t, p_w, n_w, mats, _), ray_count = self._cast_grid(
+            rotation[None], translation[None], u0[None], e1[None], e2[None], grid, refinable,
+            dense=refinable)
+        hit = np.isfinite(t) & (mats >= 0)
+        d_h, mats_h = d[hit], mats[hit]
+        inv = (1.0 / norm_v[hit])[:, None]
+        dd1 = (e1 - d_h * (d_h @ e1)[:, None]) * inv * wa[hit][:, None]
+        dd2 = (e2 - d_h * (d_h @ e2)[:, None]) * inv * wb[hit][:, None]
+        world = lambda v: v @ rotation.T  # noqa: E731  (rows rotated into the world frame)
+        d_w = world(d_h)
+        n = _unit(n_w[hit])
+        n = np.where(_rows_dot(d_w, n)[:, None] > 0, -n, n)  # face the incoming ray
+        edges = self._patch_edges(d_w, n, world(dd1), world(dd2), t[hit])
+        roughness = self._roughness(mats_h, np.zeros(len(mats_h), int),
+                                    [np.random.default_rng(seed)])
+        return HitPatches(p_w[hit], n, edges, mats_h, self._union_weight(d_h @ u.T), roughness,
+                          sensor_pose, int(ray_count[0]))
+
+    def patch_paths(self, patches: HitPatches, sensor_pose: Pose) -> HitPaths:
+        """Unsteered paths (transmit delays: travel times) of shared ``patches`` through every
+        element pair of the array at ``sensor_pose``: element factors and receive visibility
+        computed for that pose, the patches as traced (the array may have moved since)."""
+        rotation, translation = sensor_pose.rotation, sensor_pose.translation
+        x = (patches.points - translation) @ rotation  # into the sensor frame
+        n = patches.normals @ rotation
+        count = len(x)
+        visible = self._visibility(np.broadcast_to(rotation, (count, 3, 3)),
+                                   np.broadcast_to(translation, (count, 3)), x, n)
+        return self._scatter(x, n, patches.materials, patches.edges @ rotation, None, None,
+                             patches.weight.astype(complex), visible, patches.roughness)
 
     def _weighted(self, paths: HitPaths) -> HitPaths:
         """``paths`` with transmit element i's factors times ``transmit_weights[i]``, the
@@ -360,10 +458,11 @@ class AcousticTracer(RayCaster):
         n1h = n1[hit]
         refl = lambda v: v - 2 * _rows_dot(v, n1h)[:, None] * n1h  # noqa: E731
         mats2 = mats[hit]
+        edges = self._patch_edges(d2h, n2, refl(dd1[hit]), refl(dd2[hit]),
+                                  t1[hit] + t[hit] + _EPS)
         return [(beam[hit], self._scatter(
-            x2, n2, mats2, d2h, refl(dd1[hit]), refl(dd2[hit]), t1[hit] + t[hit] + _EPS,
-            (x1[hit], n1h), steering[hit], (taper[hit] * r1).astype(complex), visible,
-            self._roughness(mats2, beam[hit], rngs)))]
+            x2, n2, mats2, edges, (x1[hit], n1h), steering[hit],
+            (taper[hit] * r1).astype(complex), visible, self._roughness(mats2, beam[hit], rngs)))]
 
     def direct_paths(self, direction) -> Paths:
         """Direct transmitter -> receiver paths (cross-talk) for a beam steered to ``direction``."""
