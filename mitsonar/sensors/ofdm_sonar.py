@@ -100,7 +100,11 @@ class OfdmSonar:
             transmit elements' drives (module docstring); False: trace and synthesise every
             beam in its own cone (the reference; also whenever the tracer cannot share hits,
             :meth:`AcousticTracer.shares_hits <mitsonar.trace.tracer.AcousticTracer.shares_hits>`,
-            and for the cross-talk measurement).
+            and for the cross-talk measurement). Not the default: tracing the whole union
+            brings every beam's transmit side lobes beyond its 20 deg cone, which changes
+            decisions on diffuse walls (docs/performance.md); and behind narrow-band
+            transducers it does not gain (the per-beam path merges each beam's steered transmit
+            elements, which elements driven by a sum of codes cannot).
         pose_tolerance: (distance [m], angle [rad]) within which beams fired from moving poses
             are simulated from their pose group's.
         retrace_tolerance: (distance [m], angle [rad]) within which a pose group reuses hits
@@ -108,12 +112,12 @@ class OfdmSonar:
     """
 
     def __init__(self, sonar: Sonar, codes=None, listen: float = PAPER_LISTEN,
-                 shared_hits: bool = True, pose_tolerance=POSE_TOLERANCE,
+                 shared_hits: bool = False, pose_tolerance=POSE_TOLERANCE,
                  retrace_tolerance=RETRACE_TOLERANCE):
-        self.sonar = sonar
-        self.shared_hits = bool(shared_hits)
         self.pose_tolerance = _tolerance("pose_tolerance", pose_tolerance)
         self.retrace_tolerance = _tolerance("retrace_tolerance", retrace_tolerance)
+        self.sonar = sonar
+        self.shared_hits = bool(shared_hits)
         self._drive_cache: dict = {}
         self.codes = tuple(codes or code_set())
         self.listen = listen
