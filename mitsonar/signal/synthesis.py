@@ -236,7 +236,8 @@ class EchoSynthesizer:
         late = paths.tx_delay.min(axis=1) + paths.rx_delay.min(axis=1) >= end
         return list(zip((paths.select(~late) if late.any() else paths).merged(centres), tones))
 
-    def impulse_grid(self, paths: Paths | HitPaths, n_channels: int) -> np.ndarray:
+    def impulse_grid(self, paths: Paths | HitPaths, n_channels: int,
+                     per_pair: bool = False) -> np.ndarray:
         """Spread paths, shifted down by the band centre f_d (:attr:`Band.shift_bin`), onto the
         (n_channels, n_grid) sample grid (at :attr:`Band.sample_rate`) with the Gaussian kernel
         g: bin m of the grid's FFT holds bin m + shift_bin of the spectrum, times the kernel's
@@ -254,10 +255,11 @@ class EchoSynthesizer:
         on the order the threads add them in: the same paths give bit-identical recordings. The
         grid is returned in single precision (complex64: its rounding, ~6e-8 of the largest
         sample, is far below the band floor; its FFTs take half the time). Paths whose kernel
-        lies wholly outside the recording are left out.
+        lies wholly outside the recording are left out. ``per_pair``: factored paths on a row per
+        element pair ((N_tx x n_channels, n_grid), transmit element major).
         """
         if isinstance(paths, HitPaths):
-            return self._pair_grid(paths, n_channels)
+            return self._pair_grid(paths, n_channels, per_pair)
         if isinstance(paths, MergedHits):
             return self._merged_grid(paths, n_channels)
         import drjit as dr
@@ -428,7 +430,7 @@ class EchoSynthesizer:
         # core) then add into a narrow band of columns of the N_tx x N_rx rows, which stays in
         # cache (in the trace's order they span the whole recording: measured 5x slower).
         paths = paths.select(np.argsort(paths.tx_delay.min(axis=1) + paths.rx_delay.min(axis=1)))
-        grid = self._pair_grid(paths, n_rx, per_pair=True)
+        grid = self.impulse_grid(paths, n_rx, per_pair=True)
         channels = sfft.fft(grid, axis=-1, workers=-1)[:, band.grid_bins]
         return np.einsum("emf,ef->mf", channels.reshape(n_tx, n_rx, -1),
                          drives * self._deconvolution)
