@@ -118,7 +118,6 @@ class OfdmSonar:
         self.retrace_tolerance = _tolerance("retrace_tolerance", retrace_tolerance)
         self.sonar = sonar
         self.shared_hits = bool(shared_hits)
-        self._drive_cache: dict = {}
         self.codes = tuple(codes or code_set())
         self.listen = listen
         cfg = sonar.config
@@ -209,43 +208,22 @@ class OfdmSonar:
         <mitsonar.signal.synthesis.EchoSynthesizer.element_spectrum>`). A group within
         ``retrace_tolerance`` of the pose the hits were traced from reuses them with the array
         moved (element factors and visibility recomputed); farther, the union is traced again
-        from it. Patches that some beam's delays would carry past the recording's end go
-        through each beam's own synthesis, which cuts them there.
+        from it.
         """
-        sonar, synth, band = self.sonar, self.synth, self.band
+        sonar, synth = self.sonar, self.synth
         tracer = sonar.tracer
         delays = sonar.config.geometry.steering_delays(directions, tracer.c) + offsets[:, None]
-        end = band.start_time + band.n_samples / band.sample_rate
         patches, total, simulated = None, 0.0, list(poses)
         for group in _pose_groups(poses, self.pose_tolerance):  # one group at rest
             pose = poses[group[0]]
             if patches is None or not _within(patches.pose, pose, self.retrace_tolerance):
                 patches = tracer.trace_union(pose, directions,
                                              _seed(seed, int(beams[0]), _HITS_STREAM))
-            paths = tracer.patch_paths(patches, pose)
-            early = (paths.tx_delay.max(axis=1) + paths.rx_delay.max(axis=1)
-                     + delays[group].max()) <= end
-            total = total + synth.element_spectrum(
-                paths.select(early), self._drives([codes[i] for i in group], delays[group]))
-            late = paths.select(~early)
-            if len(late):  # per beam, cut at the recording's end
-                total = total + synth.groups_spectrum(
-                    [g for i in group for g in sonar.echo_groups(late.delayed(delays[i]),
-                                                                 codes[i], synth)],
-                    sonar.config.geometry.rx.count)
+            total = total + synth.element_spectrum(tracer.patch_paths(patches, pose),
+                                                   [codes[i] for i in group], delays[group])
             for i in group:
                 simulated[i] = pose
         return total, simulated
-
-    def _drives(self, codes, delays) -> np.ndarray:
-        """:meth:`EchoSynthesizer.drive_spectra` of codes fired with ``delays`` (B, N_tx) [s],
-        kept per schedule cycle (frames repeat their schedule)."""
-        key = (tuple(codes), np.asarray(delays).tobytes())
-        if key not in self._drive_cache:
-            if len(self._drive_cache) >= _DRIVES_KEPT:
-                self._drive_cache.clear()
-            self._drive_cache[key] = self.synth.drive_spectra(codes, delays)
-        return self._drive_cache[key]
 
     def _cycle(self, schedule: Schedule, beams, pose_at, start_time: float, seed: int,
                crosstalk: bool, channels: bool) -> dict:
@@ -297,7 +275,6 @@ class OfdmSonar:
 
 _NOISE_STREAM = 1_000_003  # separates the noise seeds from the per-beam trace seeds
 _HITS_STREAM = 1_000_033  # and the shared traces' seeds
-_DRIVES_KEPT = 64  # drive spectra kept (~1 MB each)
 
 
 def _tolerance(name: str, value) -> tuple[float, float]:
