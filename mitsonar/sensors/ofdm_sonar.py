@@ -17,6 +17,13 @@ which forms the beams and reads the channels at the candidates' instants from th
 does from the recordings' spectra. Without noise they differ only in the recording's end
 (echoes cut there) and its single-precision samples: the same decisions, depths within 3e-5 mm
 on room_glass. With noise, each path draws its own realisation, of the same statistics.
+Shared hits (``OfdmSonar(..., shared_hits=True)``): a cycle's hits depend on the pose and the
+scene, not on the steering, so the union of its beams' cones is traced once, the element factors
+computed once per pose group, and every element pair gridded once; each transmit element is
+driven by the sum of the cycle's codes with their steering delays and firing times
+(:meth:`~mitsonar.signal.synthesis.EchoSynthesizer.element_spectrum`). Every beam then carries
+its whole transmit pattern, side lobes beyond its own 20 deg cone included, which changes
+decisions on diffuse walls: so the per-beam path stays the default (docs/performance.md).
 Forming the beams before gridding (a path per hit and beam) would not save work in a frame: a
 cycle fires up to 25 beams into one recording, as many beams as receive channels, so the grids
 and transforms keep their size.
@@ -60,7 +67,8 @@ class Frame:
         echo_table: every echo reported (``DetectionSettings.echoes``), one row each, points in
             the sensor frame of its beam's pose; its rank-0 rows are ``detected``, ``depth`` and
             ``points_sensor``.
-        world_from_sensor: (B, 4, 4) sensor pose when each beam was fired.
+        world_from_sensor: (B, 4, 4) sensor pose when each beam was fired (with shared hits:
+            its pose group's, within ``pose_tolerance`` of it).
         crosstalk_db: (B,) level that the other codes of the cycle leave in this code's decoded
             envelope, relative to this beam's own echo [dB] (NaN where nothing was detected, and
             everywhere unless asked for: it needs every beam's echoes apart).

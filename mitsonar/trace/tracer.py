@@ -37,6 +37,9 @@ kernel (:mod:`~mitsonar.trace.element_factors`), kept factored per transmit and 
 (:class:`~mitsonar.trace.hitpaths.HitPaths`); no Python loop runs over rays, paths or samples.
 :meth:`AcousticTracer.trace_many` runs every step once for the hits of a batch of beams (each with
 its own pose and seed), which pays the per-call costs once.
+:meth:`AcousticTracer.trace_union` traces the union of several beams' cones once, as world-frame
+patches (:class:`HitPatches`) whose unsteered paths :meth:`AcousticTracer.patch_paths` computes for
+any nearby pose of the array (an OFDM cycle's shared hits).
 """
 
 from __future__ import annotations
