@@ -93,7 +93,8 @@ class RayCaster:
             self._refinable = np.hypot(aa, bb) <= np.tan(s.refine_radius)
 
     def _taper(self, a, b):
-        """Weight of a ray at tangent-plane offsets (a, b): 1 inside, fading to 0 at the cone edge."""
+        """Weight of a ray at tangent-plane offsets (a, b): 1 inside, fading to 0 at the cone
+        edge."""
         if self.settings.model == "paper":
             return np.ones_like(a)
         return self._fade(np.hypot(a, b) / np.tan(self.settings.cone_half_angle))

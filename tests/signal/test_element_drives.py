@@ -16,8 +16,8 @@ def test_element_drives_give_each_beams_steered_synthesis(scene_file):
     recording's end, which a synthesis on the band's period would wrap onto its start): the
     cycle's recording from the elements' drives equals the sum of the beams' own syntheses of
     the same paths, steered and cut at the recording's end, within 1e-3 of the peak (measured
-    9e-5; on the band's period: 0.11) but for the last 2 % of the recording (its end, which the beams' band-limited
-    syntheses smear)."""
+    9e-5; on the band's period: 0.11) but for the last 2 % of the recording (its end, which
+    the beams' band-limited syntheses smear)."""
     path = scene_file("wall", material_xml("w", preset="concrete"),
                       rectangle_xml("w", (0, 0, 2.5)))
     sonar = mitsonar.Sonar(path, mitsonar.SonarConfig(
