@@ -55,16 +55,18 @@ def _timed(fn, repeat: int = 1):
 #: Stages of the profile: (name, functions whose inclusive times add up, functions subtracted),
 #: functions as (file, name). Disjoint by construction; the rest is "other".
 STAGES = (
-    ("ray casts and refinement", [("tracer.py", "_cast")], []),
-    ("shadow rays", [("tracer.py", "_visibility")], []),
+    ("ray casts and refinement", [("casting.py", "_cast")], []),
+    ("shadow rays", [("casting.py", "_visibility")], []),
     ("element-factor kernel", [("element_factors.py", "element_factors")], []),
-    ("rest of the trace (per-hit NumPy)", [("tracer.py", "trace_many")],
-     [("tracer.py", "_cast"), ("tracer.py", "_visibility"),
+    ("rest of the trace (per-hit NumPy)",
+     [("tracer.py", "trace_many"), ("tracer.py", "trace_union"), ("tracer.py", "patch_paths")],
+     [("casting.py", "_cast"), ("casting.py", "_visibility"),
       ("element_factors.py", "element_factors")]),
     ("narrow-band merge kernel", [("hitpaths.py", "merged")], []),
     ("gridding kernel", [("synthesis.py", "impulse_grid")], []),
     ("synthesis FFTs and filters",
-     [("synthesis.py", "groups_spectrum"), ("band.py", "to_samples")],
+     [("synthesis.py", "groups_spectrum"), ("band.py", "to_samples"),
+      ("synthesis.py", "element_spectrum"), ("synthesis.py", "drive_spectra")],
      [("synthesis.py", "impulse_grid")]),
     ("receiver noise", [("synthesis.py", "recording"), ("synthesis.py", "band_noise")], []),
     ("channel transforms", [("band.py", "band_spectra")], []),
@@ -180,22 +182,31 @@ def main(argv=None) -> int:
     real_frames = 1 / REAL_FRAME_S * 117 / len(schedule.directions)
     for name, config in (("", sonar.config),
                          (", broadband", replace(sonar.config, transducer=BROADBAND))):
-        ofdm = OfdmSonar(mitsonar.Sonar(sonar.scene, config))
-        for path, channels, goal in (("per-channel", True, FRAME_GOAL),
-                                     ("detection-only", False, DETECTION_GOAL)):
-            t_frame, _ = _timed(lambda: ofdm.frame(schedule, lambda t: pose, channels=channels))
-            report(f"OFDM frames/s ({len(schedule.directions)} beams{name}, {path})", 1 / t_frame,
-                   "frames/s", real_frames, "real sensor (per beam count)", goal=goal)
-            print(f"  where the time goes ({path}; cProfile of the frame, inclusive times per "
-                  f"beam):")
-            profiled += profile(lambda: ofdm.frame(schedule, lambda t: pose, channels=channels),
-                                len(schedule.directions), 1, "frames/s")
+        shared_sonar = mitsonar.Sonar(sonar.scene, config)
+        for shared in (False, True):
+            ofdm = OfdmSonar(shared_sonar, shared_hits=shared)
+            label = name + (", shared hits" if shared else "")
+            for path, channels, goal in (("per-channel", True, FRAME_GOAL),
+                                         ("detection-only", False, DETECTION_GOAL)):
+                t_frame, _ = _timed(lambda: ofdm.frame(schedule, lambda t: pose,
+                                                       channels=channels))
+                report(f"OFDM frames/s ({len(schedule.directions)} beams{label}, {path})",
+                       1 / t_frame, "frames/s", real_frames, "real sensor (per beam count)",
+                       goal=goal)
+                print(f"  where the time goes ({path}; cProfile of the frame, inclusive times "
+                      f"per beam):")
+                profiled += profile(lambda: ofdm.frame(schedule, lambda t: pose,
+                                                       channels=channels),
+                                    len(schedule.directions), 1, "frames/s")
         fast, full = (OfdmSonar(mitsonar.Sonar(sonar.scene, replace(config, noise_rms=0.0, **rate)))
                       for rate in ({}, FULL_RATE))
-        report_depths(fast.frame(schedule, lambda t: pose).depth,
-                      full.frame(schedule, lambda t: pose).depth)
-        report_depths(fast.frame(schedule, lambda t: pose, channels=False).depth,
-                      fast.frame(schedule, lambda t: pose).depth, "per-channel path")
+        per_beam = fast.frame(schedule, lambda t: pose).depth
+        report_depths(per_beam, full.frame(schedule, lambda t: pose).depth)
+        report_depths(fast.frame(schedule, lambda t: pose, channels=False).depth, per_beam,
+                      "per-channel path")
+        shared = OfdmSonar(fast.sonar, shared_hits=True)
+        report_depths(shared.frame(schedule, lambda t: pose).depth, per_beam,
+                      "per-beam trace (shared hits)")
 
     # Fast synthesis vs the direct summation of (1)(3) on the same paths (paper model, ideal
     # transducers, 400 kHz: both agree to ~2e-4 of the peak), recorded to 1 m past the middle

@@ -17,6 +17,13 @@ which forms the beams and reads the channels at the candidates' instants from th
 does from the recordings' spectra. Without noise they differ only in the recording's end
 (echoes cut there) and its single-precision samples: the same decisions, depths within 3e-5 mm
 on room_glass. With noise, each path draws its own realisation, of the same statistics.
+Shared hits (``OfdmSonar(..., shared_hits=True)``): a cycle's hits depend on the pose and the
+scene, not on the steering, so the union of its beams' cones is traced once, the element factors
+computed once per pose group, and every element pair gridded once; each transmit element is
+driven by the sum of the cycle's codes with their steering delays and firing times
+(:meth:`~mitsonar.signal.synthesis.EchoSynthesizer.element_spectrum`). Every beam then carries
+its whole transmit pattern, side lobes beyond its own 20 deg cone included, which changes
+decisions on diffuse walls: so the per-beam path stays the default (docs/performance.md).
 Forming the beams before gridding (a path per hit and beam) would not save work in a frame: a
 cycle fires up to 25 beams into one recording, as many beams as receive channels, so the grids
 and transforms keep their size.
@@ -36,6 +43,16 @@ from mitsonar.signal.ofdm import PAPER_LISTEN, Schedule, code_set
 from mitsonar.signal.receiver import EchoProcessor
 from mitsonar.signal.synthesis import EchoSynthesizer
 
+#: Beams of a cycle fired within (distance [m], angle [rad]) of their pose group's first pose
+#: are simulated from that pose, with shared hits: 1 cm is 20 ms at 0.5 m/s, more than a
+#: cycle's 12.5 ms of firing, and below what the echoes' own flight time moves the robot (a 2 m
+#: echo returns 12 ms after its firing, which no simulated pose follows).
+POSE_TOLERANCE = (0.01, np.radians(0.5))
+#: A pose group within (distance [m], angle [rad]) of the pose the hits were traced from reuses
+#: them with the array moved; farther, the hits are traced again
+#: (tests/sensors/test_shared_hits.py: reuse over 3 cm against re-tracing).
+RETRACE_TOLERANCE = (0.05, np.radians(2.0))
+
 
 @dataclass(frozen=True)
 class Frame:
@@ -50,7 +67,8 @@ class Frame:
         echo_table: every echo reported (``DetectionSettings.echoes``), one row each, points in
             the sensor frame of its beam's pose; its rank-0 rows are ``detected``, ``depth`` and
             ``points_sensor``.
-        world_from_sensor: (B, 4, 4) sensor pose when each beam was fired.
+        world_from_sensor: (B, 4, 4) sensor pose when each beam was fired (with shared hits:
+            its pose group's, within ``pose_tolerance`` of it).
         crosstalk_db: (B,) level that the other codes of the cycle leave in this code's decoded
             envelope, relative to this beam's own echo [dB] (NaN where nothing was detected, and
             everywhere unless asked for: it needs every beam's echoes apart).
@@ -86,10 +104,28 @@ class OfdmSonar:
         sonar: the scene and sensor configuration (its tracer, processor settings and noise).
         codes: code set (default: the paper's 25).
         listen: listening time after each cycle [s].
+        shared_hits: trace each cycle's hits once and synthesise its recording once from the
+            transmit elements' drives (module docstring); False: trace and synthesise every
+            beam in its own cone (the reference; also whenever the tracer cannot share hits,
+            :meth:`AcousticTracer.shares_hits <mitsonar.trace.tracer.AcousticTracer.shares_hits>`,
+            and for the cross-talk measurement). Not the default: tracing the whole union
+            brings every beam's transmit side lobes beyond its 20 deg cone, which changes
+            decisions on diffuse walls (docs/performance.md); and behind narrow-band
+            transducers it does not gain (the per-beam path merges each beam's steered transmit
+            elements, which elements driven by a sum of codes cannot).
+        pose_tolerance: (distance [m], angle [rad]) within which beams fired from moving poses
+            are simulated from their pose group's.
+        retrace_tolerance: (distance [m], angle [rad]) within which a pose group reuses hits
+            traced from another pose.
     """
 
-    def __init__(self, sonar: Sonar, codes=None, listen: float = PAPER_LISTEN):
+    def __init__(self, sonar: Sonar, codes=None, listen: float = PAPER_LISTEN,
+                 shared_hits: bool = False, pose_tolerance=POSE_TOLERANCE,
+                 retrace_tolerance=RETRACE_TOLERANCE):
+        self.pose_tolerance = _tolerance("pose_tolerance", pose_tolerance)
+        self.retrace_tolerance = _tolerance("retrace_tolerance", retrace_tolerance)
         self.sonar = sonar
+        self.shared_hits = bool(shared_hits)
         self.codes = tuple(codes or code_set())
         self.listen = listen
         cfg = sonar.config
@@ -146,6 +182,57 @@ class OfdmSonar:
         return Frame(schedule, detected, depth, amplitude, points,
                      Echoes.gather(tables, cycle_beams), poses, crosstalk_db, start_time)
 
+    def _beam_echoes(self, beams, poses, directions, offsets, codes, seed: int,
+                     apart: bool) -> np.ndarray:
+        """Echo spectra on the band of a cycle's beams, each beam traced in its own cone from
+        its own pose (the reference of the shared path): (B, N_rx, nb), or (1, N_rx, nb) with
+        every beam's echoes on one grid per distinct waveform, one FFT per waveform and channel,
+        unless they are asked for ``apart`` (the cross-talk measurement)."""
+        sonar = self.sonar
+        beam_groups = []  # per beam: its (paths, waveform) groups, fired at its offset
+        for first in range(0, len(beams), TRACE_BATCH):  # beams traced a batch at a time
+            batch = slice(first, first + TRACE_BATCH)
+            traces = sonar.tracer.trace_many(poses[batch], directions[batch],
+                                             [_seed(seed, b) for b in beams[batch]])
+            beam_groups += [[(p.delayed(offset), w)
+                             for p, w in sonar.echo_groups(trace.paths, code, self.synth)]
+                            for trace, offset, code in zip(traces, offsets[batch], codes[batch])]
+        n_rx = sonar.config.geometry.rx.count
+        if apart:
+            return np.stack([self.synth.groups_spectrum(groups, n_rx) for groups in beam_groups])
+        return self.synth.groups_spectrum([g for groups in beam_groups for g in groups],
+                                          n_rx)[None]
+
+    def _shared_echoes(self, beams, poses, directions, offsets, codes, seed: int):
+        """Echo spectrum on the band (N_rx, nb) of a cycle whose beams share their hits, and the
+        pose each beam was simulated from.
+
+        The union of the beams' cones is traced once (:meth:`AcousticTracer.trace_union
+        <mitsonar.trace.tracer.AcousticTracer.trace_union>`). Beams fired within
+        ``pose_tolerance`` of a pose group's first pose (firing order) are simulated from it:
+        one set of element factors and one gridding of every element pair per group, each
+        transmit element driven by the sum of the group's codes with their steering delays and
+        firing times (:meth:`EchoSynthesizer.element_spectrum
+        <mitsonar.signal.synthesis.EchoSynthesizer.element_spectrum>`). A group within
+        ``retrace_tolerance`` of the pose the hits were traced from reuses them with the array
+        moved (element factors and visibility recomputed); farther, the union is traced again
+        from it.
+        """
+        sonar, synth = self.sonar, self.synth
+        tracer = sonar.tracer
+        delays = sonar.config.geometry.steering_delays(directions, tracer.c) + offsets[:, None]
+        patches, total, simulated = None, 0.0, list(poses)
+        for group in _pose_groups(poses, self.pose_tolerance):  # one group at rest
+            pose = poses[group[0]]
+            if patches is None or not _within(patches.pose, pose, self.retrace_tolerance):
+                patches = tracer.trace_union(pose, directions,
+                                             _seed(seed, int(beams[0]), _HITS_STREAM))
+            total = total + synth.element_spectrum(tracer.patch_paths(patches, pose),
+                                                   [codes[i] for i in group], delays[group])
+            for i in group:
+                simulated[i] = pose
+        return total, simulated
+
     def _cycle(self, schedule: Schedule, beams, pose_at, start_time: float, seed: int,
                crosstalk: bool, channels: bool) -> dict:
         sonar = self.sonar
@@ -155,19 +242,12 @@ class OfdmSonar:
         codes = [schedule.codes[k] for k in schedule.code_index[beams]]
         directions = schedule.directions[beams]
         poses = [pose_at(start_time + schedule.transmit_time[b]) for b in beams]
-        beam_groups = []  # per beam: its (paths, waveform) groups, fired at its offset
-        for first in range(0, len(beams), TRACE_BATCH):  # beams traced a batch at a time
-            batch = slice(first, first + TRACE_BATCH)
-            traces = sonar.tracer.trace_many(poses[batch], directions[batch],
-                                             [_seed(seed, b) for b in beams[batch]])
-            beam_groups += [[(p.delayed(offset), w)
-                             for p, w in sonar.echo_groups(trace.paths, code, self.synth)]
-                            for trace, offset, code in zip(traces, offsets[batch], codes[batch])]
-        if crosstalk:  # each beam's echoes apart, to measure what the others leave in its code
-            echo_spectra = [self.synth.groups_spectrum(groups, n_rx) for groups in beam_groups]
+        if self.shared_hits and not crosstalk and sonar.tracer.shares_hits():
+            echoes, poses = self._shared_echoes(beams, poses, directions, offsets, codes, seed)
+        else:
+            echo_spectra = self._beam_echoes(beams, poses, directions, offsets, codes, seed,
+                                             apart=crosstalk)
             echoes = np.sum(echo_spectra, axis=0)
-        else:  # the cycle's echoes on one grid, one FFT per distinct waveform and channel
-            echoes = self.synth.groups_spectrum([g for groups in beam_groups for g in groups], n_rx)
         direct_total = self.synth.groups_spectrum(
             [(sonar.tracer.direct_paths(u).delayed(offset), code)
              for u, offset, code in zip(directions, offsets, codes)], n_rx)
@@ -202,6 +282,33 @@ class OfdmSonar:
 
 
 _NOISE_STREAM = 1_000_003  # separates the noise seeds from the per-beam trace seeds
+_HITS_STREAM = 1_000_033  # and the shared traces' seeds
+
+
+def _tolerance(name: str, value) -> tuple[float, float]:
+    distance, angle = (float(v) for v in value)
+    if not (distance >= 0 and angle >= 0):
+        raise ValueError(f"OfdmSonar.{name} must be (distance [m], angle [rad]) >= 0, "
+                         f"got {value}")
+    return distance, angle
+
+
+def _within(first: Pose, second: Pose, tolerance) -> bool:
+    """Whether two poses are within (distance [m], angle [rad]) of each other."""
+    turn = (np.trace(first.rotation.T @ second.rotation) - 1.0) / 2.0
+    return bool(np.linalg.norm(second.translation - first.translation) <= tolerance[0]
+                and np.arccos(np.clip(turn, -1.0, 1.0)) <= tolerance[1])
+
+
+def _pose_groups(poses, tolerance) -> list[list[int]]:
+    """Consecutive runs of ``poses`` (firing order) within ``tolerance`` of each run's first."""
+    groups = [[0]]
+    for i in range(1, len(poses)):  # bookkeeping over a cycle's poses
+        if _within(poses[groups[-1][0]], poses[i], tolerance):
+            groups[-1].append(i)
+        else:
+            groups.append([i])
+    return groups
 
 
 def _seed(seed: int, *parts) -> int:

@@ -144,9 +144,7 @@ class Band:
             f = self.fft_frequencies
             positive = f > 0
             w = np.zeros(self.n_fft, dtype=complex)
-            w[positive] = 2.0 * waveform.spectrum(f[positive]) * self.reference_rate
-            if self.transducer_response:
-                w[positive] *= self.transducer.frequency_response(f[positive]) ** 2
+            w[positive] = self.system_response(waveform, f[positive])
             kept = (np.abs(w) > self.floor * np.abs(w).max()) \
                 & (np.abs(f) < 0.4 * self.reference_rate)
             w = np.where(kept, w, 0.0)
@@ -156,6 +154,15 @@ class Band:
                                  f"built for; pass it in Band(waveforms=...)")
             self._spectra[waveform] = w
         return self._spectra[waveform]
+
+    def system_response(self, waveform, frequencies) -> np.ndarray:
+        """The system spectrum's values at positive ``frequencies`` [Hz] (any grid), before the
+        band's floor: 2 x the drive's spectrum per sample at the reference rate, through both
+        transducer responses."""
+        w = 2.0 * waveform.spectrum(frequencies) * self.reference_rate
+        if self.transducer_response:
+            w = w * self.transducer.frequency_response(frequencies) ** 2
+        return w
 
     def band_moments(self, waveform=None) -> tuple[float, float]:
         """Centre (power-weighted mean) and rms bandwidth [Hz] of the system spectrum of

@@ -47,6 +47,8 @@ from mitsonar.trace.paths import Paths
 #: memory per core (3.4 MB for a broadband OFDM beam's 25 channels); Dr.Jit's CUDA backend, which
 #: has no Expand, adds atomically.
 GRID_REDUCE = "Expand"
+#: Drive spectra kept by a synthesizer (~1 MB each).
+DRIVES_KEPT = 64
 
 
 def _spread(acc, pos, row, gain, first_order, rotation, half_width: int, inv_var: float,
@@ -139,13 +141,15 @@ def _pair_kernel():
     receive factors (:meth:`HitPaths.kernel_factors`, already demodulated and in grid units),
     transmit positions (H x N_tx,) and receive offsets (H x N_rx,) [samples] (a pair's position
     is their sum), N_tx, N_rx, the row length, the rows' first sample (negated), half_width,
-    1/sigma^2, the recording's sample count. Returns the Int64 grid of interleaved (re, im).
+    1/sigma^2, the recording's sample count, and the offset between transmit elements' rows
+    (0: a row per receive element; N_rx x the row length: a row per element pair, transmit
+    element major). Returns the Int64 grid of interleaved (re, im).
     """
     import drjit as dr
     Float32, Float64, Int64 = backend().Float32, backend().Float64, backend().Int64
 
     def spread_pairs(size, thread, tx, rx, tx_pos, rx_pos, n_tx, n_rx, stride, row_offset,
-                     half_width, inv_var, n_samples):
+                     half_width, inv_var, n_samples, element_stride):
         acc = dr.zeros(Int64, 2 * size)
         patch = thread // n_rx
         row = Int64(thread - patch * n_rx) * stride + row_offset
@@ -155,7 +159,8 @@ def _pair_kernel():
             tx_values = [dr.gather(Float32, x, patch * n_tx + i) for x in tx]
             gain = tuple(Float64(g) for g in pair_gain(tx_values, rx_values))
             pos = dr.gather(Float64, tx_pos, patch * n_tx + i) + rx_u
-            _spread(acc, pos, row, gain, None, None, half_width, inv_var, 0.0,
+            _spread(acc, pos, row + i * element_stride if element_stride else row, gain, None,
+                    None, half_width, inv_var, 0.0,
                     active=(pos > -half_width) & (pos < n_samples + half_width))
         return acc
 
@@ -210,8 +215,12 @@ class EchoSynthesizer:
         self.sigma = float(np.sqrt(log_tol / (2 * np.pi**2 * (1 - 2 * nu_max))))
         deconv_gain = np.exp(2 * np.pi**2 * self.sigma**2 * nu_max**2)
         self.half_width = int(np.ceil(self.sigma * np.sqrt(2 * np.log(deconv_gain / tolerance))))
-        kernel_ft = self.sigma * np.sqrt(2 * np.pi) * np.exp(-2 * np.pi**2 * self.sigma**2 * nu**2)
-        self._deconvolution = 1.0 / kernel_ft  # over the band
+        self._deconvolution = 1.0 / self._kernel_transform(nu)  # over the band
+        self._drives: dict = {}
+
+    def _kernel_transform(self, nu):
+        """Transform of the Gaussian gridding kernel at ``nu`` [cycles per sample] from f_d."""
+        return self.sigma * np.sqrt(2 * np.pi) * np.exp(-2 * np.pi**2 * self.sigma**2 * nu**2)
 
     def narrowband_groups(self, paths, waveform=None) -> list:
         """(paths, waveform) groups that synthesise ``paths`` (:class:`Paths` with per-hit blocks,
@@ -233,7 +242,8 @@ class EchoSynthesizer:
         late = paths.tx_delay.min(axis=1) + paths.rx_delay.min(axis=1) >= end
         return list(zip((paths.select(~late) if late.any() else paths).merged(centres), tones))
 
-    def impulse_grid(self, paths: Paths | HitPaths, n_channels: int) -> np.ndarray:
+    def impulse_grid(self, paths: Paths | HitPaths, n_channels: int,
+                     per_pair: bool = False, period: int | None = None) -> np.ndarray:
         """Spread paths, shifted down by the band centre f_d (:attr:`Band.shift_bin`), onto the
         (n_channels, n_grid) sample grid (at :attr:`Band.sample_rate`) with the Gaussian kernel
         g: bin m of the grid's FFT holds bin m + shift_bin of the spectrum, times the kernel's
@@ -251,10 +261,11 @@ class EchoSynthesizer:
         on the order the threads add them in: the same paths give bit-identical recordings. The
         grid is returned in single precision (complex64: its rounding, ~6e-8 of the largest
         sample, is far below the band floor; its FFTs take half the time). Paths whose kernel
-        lies wholly outside the recording are left out.
+        lies wholly outside the recording are left out. ``per_pair`` and ``period``: factored
+        paths on a row per element pair, on a longer period (:meth:`_pair_grid`).
         """
         if isinstance(paths, HitPaths):
-            return self._pair_grid(paths, n_channels)
+            return self._pair_grid(paths, n_channels, per_pair, period)
         if isinstance(paths, MergedHits):
             return self._merged_grid(paths, n_channels)
         import drjit as dr
@@ -335,8 +346,12 @@ class EchoSynthesizer:
         cycles = self.band.shift_bin / self.band.n_grid * u
         return phasor(-2 * np.pi * (cycles - np.floor(cycles)))
 
-    def _pair_grid(self, paths: HitPaths, n_channels: int) -> np.ndarray:
-        """:meth:`impulse_grid` of factored paths by :func:`_pair_kernel`."""
+    def _pair_grid(self, paths: HitPaths, n_channels: int, per_pair: bool = False,
+                   period: int | None = None) -> np.ndarray:
+        """:meth:`impulse_grid` of factored paths by :func:`_pair_kernel`; with ``per_pair``, a
+        row per element pair ((N_tx x n_channels, period), transmit element major), on a
+        period of ``period`` samples (default the band's n_grid; at least its n_samples + 4 x
+        half_width)."""
         import drjit as dr
         Float64, Int64, UInt32 = backend().Float64, backend().Int64, backend().UInt32
 
@@ -350,8 +365,10 @@ class EchoSynthesizer:
         recorded = (latest > -hw) & (earliest < band.n_samples + hw)  # patches with a pair in
         paths = paths.select(recorded)
         scale = _fixed_point_scale(np.max(paths.gain_bound(), initial=0.0))
+        n_rows = n_tx * n_channels if per_pair else n_channels
+        period = band.n_grid if period is None else period
         if scale is None:
-            return np.zeros((n_channels, band.n_grid), dtype=np.complex64)
+            return np.zeros((n_rows, period), dtype=np.complex64)
         tx_u = (paths.tx_delay - band.start_time) * fs  # a pair's position: tx_u + rx_u
         rx_u = paths.rx_delay * fs
         tx, rx = paths.scaled(self._demodulation(tx_u), scale * self._demodulation(rx_u)) \
@@ -359,10 +376,11 @@ class EchoSynthesizer:
         thread = to_jit(UInt32, np.arange(rx_u.size, dtype=np.uint32))
         origin, width = self._window(max(earliest[recorded].min(), -hw),
                                      min(latest[recorded].max(), band.n_samples + hw))
-        acc = _pair_kernel()(n_channels * width, thread, tx, rx, to_jit(Float64, tx_u),
+        acc = _pair_kernel()(n_rows * width, thread, tx, rx, to_jit(Float64, tx_u),
                              to_jit(Float64, rx_u), n_tx, n_rx, width,
-                             dr.opaque(Int64, -origin), hw, 1.0 / self.sigma**2, band.n_samples)
-        return _folded(acc, scale, n_channels, band.n_grid, origin)
+                             dr.opaque(Int64, -origin), hw, 1.0 / self.sigma**2, band.n_samples,
+                             n_channels * width if per_pair else 0)
+        return _folded(acc, scale, n_rows, period, origin)
 
     def analytic(self, paths: Paths, n_channels: int, waveform=None) -> np.ndarray:
         """Noiseless :meth:`Band.to_analytic` recordings (n_channels, n_samples) of paths driven
@@ -395,6 +413,68 @@ class EchoSynthesizer:
             spectrum += sfft.fft(grid, axis=-1, workers=-1)[:, band.grid_bins] \
                 * (band.system_spectrum(waveform)[band.bins] * self._deconvolution)
         return spectrum
+
+    def drive_spectra(self, waveforms, delays, frequencies) -> np.ndarray:
+        """System spectra (N_tx, F) at ``frequencies`` (F,) [Hz] of transmit elements that each
+        fire every waveform b of ``waveforms`` (B) with its own delay ``delays[b, e]`` (B, N_tx)
+        [s] (a beam's steering and firing time): sum_b W_b(f) exp(-j 2 pi f delays[b, e]), W_b
+        the system response (:meth:`Band.system_response`) left out below the band's floor, as
+        :meth:`Band.system_spectrum` leaves it. Kept per (waveforms, delays, frequencies): frames
+        repeat their schedule."""
+        key = (tuple(waveforms), np.asarray(delays).tobytes(), len(frequencies))
+        if key not in self._drives:
+            band = self.band
+            spectra = []
+            for w in waveforms:  # the cycle's codes
+                response = band.system_response(w, frequencies)
+                floor = band.floor * np.abs(band.system_spectrum(w)).max()
+                spectra.append(np.where(np.abs(response) > floor, response, 0.0))
+            phases = np.exp(-2j * np.pi * np.asarray(delays)[:, :, None] * frequencies)
+            if len(self._drives) >= DRIVES_KEPT:
+                self._drives.clear()
+            self._drives[key] = np.einsum("bf,bef->ef", np.array(spectra), phases)
+        return self._drives[key]
+
+    def element_spectrum(self, paths: HitPaths, waveforms, delays) -> np.ndarray:
+        """Analytic spectrum on the band (N_rx, nb) of the recording of unsteered factored
+        ``paths`` (transmit delays: travel times) when every transmit element e fires each
+        waveform b of ``waveforms`` with delay ``delays[b, e]`` (B, N_tx) [s]: sum_e G_em(f)
+        D_e(f) (:meth:`drive_spectra`), with G_em the channel from element e to receive element
+        m through the patches, gridded once on a row per element pair (:func:`_pair_kernel`)
+        whatever the number of waveforms.
+
+        The drives' delays carry echoes later; on the band's period they would wrap onto the
+        recording's start. So the rows are gridded on a period longer by the largest delay, the
+        channels driven and summed on its bins within the band, and the recording's samples
+        taken from them (an inverse transform, the echoes cut at the recording's end as a
+        recording cuts them) and put onto the band (:meth:`Band.band_spectra`)."""
+        band = self.band
+        fs = band.sample_rate
+        n_tx, n_rx = paths.elements
+        period = sfft.next_fast_len(
+            band.n_grid + int(np.ceil(max(float(np.max(delays)), 0.0) * fs)))
+        nu = np.fft.fftfreq(period)  # [cycles per sample] from the band's centre f_d
+        centre = band.fft_frequencies[band.shift_bin]
+        frequencies = centre + nu * fs
+        step = fs / period
+        inside = np.flatnonzero((frequencies > band.frequencies[0] - step)
+                                & (frequencies < band.frequencies[-1] + step))
+        # Patches in order of arrival: the kernel's threads (a block of consecutive patches per
+        # core) then add into a narrow band of columns of the N_tx x N_rx rows, which stays in
+        # cache (in the trace's order they span the whole recording: measured 5x slower).
+        paths = paths.select(np.argsort(paths.tx_delay.min(axis=1) + paths.rx_delay.min(axis=1)))
+        grid = self.impulse_grid(paths, n_rx, per_pair=True, period=period)
+        channels = sfft.fft(grid, axis=-1, workers=-1)[:, inside].reshape(n_tx, n_rx, -1)
+        drives = self.drive_spectra(waveforms, delays, frequencies[inside]) \
+            * (band.n_grid / band.n_fft / self._kernel_transform(nu[inside]))
+        full = np.zeros((n_rx, period), complex)
+        full[:, inside] = np.einsum("emf,ef->mf", channels, drives)
+        # a(t) exp(-j 2 pi f_d (t - t0)) at the recording's samples (t0 its start)
+        shifted = sfft.ifft(full, axis=-1, workers=-1)[:, : band.n_samples]
+        turn = np.exp(2j * np.pi * centre * np.arange(band.n_samples) / fs)
+        samples = shifted * np.exp(-2j * np.pi * centre * band.start_time) if band.baseband \
+            else (shifted * turn).real
+        return band.band_spectra(samples)
 
     def group_spectrum(self, paths: Paths, waveform, n_channels: int) -> np.ndarray:
         """Analytic spectrum on the band (n_channels, nb) of the echoes of ``paths`` driven by

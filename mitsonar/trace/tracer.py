@@ -30,38 +30,35 @@ The paper's model (``model='paper'``) instead takes 5 x 5 point reflectors 1.25 
 the beam with amplitude alpha beta R (1)(3): alpha the receive aperture's solid angle over 2 pi,
 beta ``paper_beta``, R the energy coefficient (4); no air absorption unless asked for.
 
+The ray grid, casts, refinement and shadow rays (steps 1-2, visibility) are
+:class:`~mitsonar.trace.casting.RayCaster`'s, which the tracer extends with the scattering.
 After the intersections, per-hit geometry is NumPy and the per (hit, element) factors one Dr.Jit
 kernel (:mod:`~mitsonar.trace.element_factors`), kept factored per transmit and receive element
 (:class:`~mitsonar.trace.hitpaths.HitPaths`); no Python loop runs over rays, paths or samples.
 :meth:`AcousticTracer.trace_many` runs every step once for the hits of a batch of beams (each with
 its own pose and seed), which pays the per-call costs once.
+:meth:`AcousticTracer.trace_union` traces the union of several beams' cones once, as world-frame
+patches (:class:`HitPatches`) whose unsteered paths :meth:`AcousticTracer.patch_paths` computes for
+any nearby pose of the array (an OFDM cycle's shared hits).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
 
-import drjit as dr
 import numpy as np
-from scipy.ndimage import binary_dilation
 
-from mitsonar.physics.array import APERTURE, ArrayGeometry
 from mitsonar.frames import Pose, orthonormal_basis
+from mitsonar.physics.array import APERTURE, ArrayGeometry
+from mitsonar.physics.medium import Medium
+from mitsonar.physics.transducer import Transducer
+from mitsonar.physics.waveforms import Pulse
+from mitsonar.scene.loading import AcousticScene
+from mitsonar.trace.casting import _EPS, RayCaster, _length, _rotate, _rows_dot, _unit
 from mitsonar.trace.element_factors import element_factors
 from mitsonar.trace.hitpaths import HitPaths
-from mitsonar.jit import backend, to_jit
-from mitsonar.scene.rays import rays
-from mitsonar.physics.medium import Medium
-from mitsonar.scene.loading import AcousticScene, mitsuba
-from mitsonar.physics.waveforms import Pulse
 from mitsonar.trace.paths import Paths
-from mitsonar.physics.transducer import Transducer
 from mitsonar.validation import check_finite, check_positive, check_range
-
-#: Offset of secondary ray origins from a surface [m].
-_EPS = 1e-4
-#: Acoustically transparent layers a ray may step through.
-_MAX_TRANSPARENT_LAYERS = 8
 
 
 @dataclass(frozen=True)
@@ -93,6 +90,11 @@ class TraceSettings:
         paper_spacing: reflector spacing of the paper model [rad].
         paper_grid: reflectors per axis of the paper model.
         paper_beta: the paper's beta (scattered energy fraction).
+        shared_ray_step: angle between neighbouring rays of a trace shared by several beams
+            (:meth:`AcousticTracer.trace_union`) outside the beams' main lobes [rad]; within
+            ``refine_radius`` of a beam axis ``refine`` times denser. The default, 2 deg and
+            0.67 deg in the main lobes, is as dense as a beam's own grid (2.5 deg outside its
+            main lobe, 0.43-0.6 deg within 4 deg of its axis).
     """
 
     model: str = "physical"
@@ -113,6 +115,7 @@ class TraceSettings:
     paper_beta: float = 1.0
     ray_density: str = "beam"
     transmit_weights: tuple | None = None
+    shared_ray_step: float = np.radians(2.0)
 
     def __post_init__(self):
         if self.model not in ("physical", "paper"):
@@ -135,6 +138,7 @@ class TraceSettings:
         if self.ray_density not in ("beam", "uniform"):
             raise ValueError(f"TraceSettings.ray_density must be 'beam' or 'uniform', "
                              f"got {self.ray_density!r}")
+        check_range("TraceSettings.shared_ray_step [rad]", self.shared_ray_step, 1e-3, 0.2)
         if self.transmit_weights is not None:
             weights = tuple(float(w) for w in np.ravel(self.transmit_weights))
             check_finite("TraceSettings.transmit_weights", np.array(weights))
@@ -160,36 +164,35 @@ class TraceResult:
     ray_count: int
 
 
-def _warped_grid(n: int, half_extent: float, sigma: float, floor: float):
-    """Cell centres and widths (n,) of a 1-D grid on [-E, E] with density floor + gauss(sigma)."""
-    a = np.linspace(-half_extent, half_extent, 4097)
-    density = floor + np.exp(-0.5 * (a / sigma) ** 2)
-    cdf = np.concatenate([[0.0], np.cumsum(0.5 * (density[1:] + density[:-1]) * np.diff(a))])
-    edges = np.interp(np.linspace(0.0, cdf[-1], n + 1), cdf, a)
-    return 0.5 * (edges[1:] + edges[:-1]), np.diff(edges)
+
+@dataclass(frozen=True)
+class HitPatches:
+    """First-bounce surface patches of a trace shared by several beams
+    (:meth:`AcousticTracer.trace_union`), in the world frame, so that element factors can be
+    computed for any pose of the array nearby (:meth:`AcousticTracer.patch_paths`).
+
+    Attributes:
+        points: (H, 3) patch centres [m].
+        normals: (H, 3) unit normals, facing the rays that hit them.
+        edges: (H, 2, 3) patch edges [m].
+        materials: (H,) material index (into ``AcousticScene.materials``).
+        weight: (H,) weight of the union of the beams' cones (1 inside, fading at its edge).
+        roughness: (H,) unit phasors of the diffuse parts.
+        pose: the world-from-sensor pose traced from.
+        ray_count: rays traced.
+    """
+
+    points: np.ndarray
+    normals: np.ndarray
+    edges: np.ndarray
+    materials: np.ndarray
+    weight: np.ndarray
+    roughness: np.ndarray
+    pose: Pose
+    ray_count: int
 
 
-def _rows_dot(a, b):
-    """Dot products of 3-vectors along the last axis (broadcasting): explicit, which NumPy runs
-    several times faster than einsum or matmul over so short an axis."""
-    return a[..., 0] * b[..., 0] + a[..., 1] * b[..., 1] + a[..., 2] * b[..., 2]
-
-
-def _length(v):
-    """Lengths of 3-vectors along the last axis (faster than np.linalg.norm there)."""
-    return np.sqrt(_rows_dot(v, v))
-
-
-def _unit(v):
-    return v / _length(v)[..., None]
-
-
-def _rotate(rotation, v, inverse: bool = False):
-    """Rows (K, 3) rotated by their own matrices (K, 3, 3) (transposed with ``inverse``)."""
-    return np.einsum("kji,kj->ki" if inverse else "kij,kj->ki", rotation, v)
-
-
-class AcousticTracer:
+class AcousticTracer(RayCaster):
     """Traces beams through one loaded scene; build once, call :meth:`trace` per beam.
 
     Args:
@@ -203,12 +206,9 @@ class AcousticTracer:
 
     def __init__(self, scene: AcousticScene, geometry: ArrayGeometry, transducer: Transducer,
                  medium: Medium, pulse: Pulse, settings: TraceSettings = TraceSettings()):
-        self.mi = mitsuba()
-        self.scene = scene
-        self.geometry = geometry
+        super().__init__(scene, geometry, settings)
         self.transducer = transducer
         self.medium = medium
-        self.settings = settings
         self.c = medium.speed_of_sound
         self.k = float(medium.wavenumber(pulse.frequency))
         z_air = medium.impedance
@@ -218,121 +218,16 @@ class AcousticTracer:
         self._log_attenuation = -absorption * np.log(10.0) / 20.0  # [1/m], amplitude
         mats = scene.materials
         self._scattering = np.array([m.scattering for m in mats])
-        self._transparent = np.array([m.transparent for m in mats])
         self._z2 = np.array([m.normal_impedance(z_air) for m in mats])
         s = settings
-        if s.model == "paper":
-            offsets = (np.arange(s.paper_grid) - (s.paper_grid - 1) / 2) * np.tan(s.paper_spacing)
-            aa, bb = np.meshgrid(offsets, offsets, indexing="ij")
-            zero = np.zeros_like(aa)
-            self._grid = (aa, bb, zero, zero, np.ones(aa.shape, bool))
-        else:
-            half = np.tan(s.cone_half_angle)
-            sigma = 1.5 * np.tan(s.main_lobe_width) / 2.355
-            if s.ray_density == "beam":
-                centres, widths = _warped_grid(s.rays_per_axis, half, sigma, s.importance_floor)
-            else:
-                edges = np.tan(np.linspace(-s.cone_half_angle, s.cone_half_angle,
-                                           s.rays_per_axis + 1))
-                centres, widths = 0.5 * (edges[1:] + edges[:-1]), np.diff(edges)
-            aa, bb = np.meshgrid(centres, centres, indexing="ij")
-            da, db = np.meshgrid(widths, widths, indexing="ij")
-            self._grid = (aa, bb, da, db, np.hypot(aa, bb) <= half)
-            self._refinable = np.hypot(aa, bb) <= np.tan(s.refine_radius)
         self._weights = None if s.transmit_weights is None else np.array(s.transmit_weights)
         if self._weights is not None and len(self._weights) != geometry.tx.count:
             raise ValueError(f"TraceSettings.transmit_weights: {len(self._weights)} weights for "
                              f"{geometry.tx.count} transmit elements")
 
-    def _taper(self, a, b):
-        """Weight of a ray at tangent-plane offsets (a, b): 1 inside, fading to 0 at the cone edge."""
-        s = self.settings
-        if s.model == "paper":
-            return np.ones_like(a)
-        rho = np.hypot(a, b) / np.tan(s.cone_half_angle)
-        fade = np.clip((1.0 - rho) / s.taper, 0.0, 1.0) if s.taper > 0 else (rho <= 1).astype(float)
-        return np.sin(0.5 * np.pi * fade) ** 2
-
     # ---- geometry helpers -------------------------------------------------------------------
     def _attenuation(self, distance):
         return np.exp(self._log_attenuation * distance)
-
-    def _intersect(self, origins, directions):
-        """First non-transparent hit of rays (world frame).
-
-        Returns t (inf: miss), p, n (world), material index (-1: miss) and shape registry id.
-        """
-        n_rays = len(origins)
-        t_total = np.zeros(n_rays)
-        t = np.full(n_rays, np.inf)
-        p = np.zeros((n_rays, 3))
-        nrm = np.zeros((n_rays, 3))
-        mat = np.full(n_rays, -1)
-        shape = np.full(n_rays, -1)
-        active = np.arange(n_rays)
-        o = origins.copy()
-        for _ in range(_MAX_TRANSPARENT_LAYERS):  # loop over layers, each vectorised over rays
-            si = self.scene.scene.ray_intersect(rays(o[active], directions[active]),
-                                                ray_flags=self.mi.RayFlags.Minimal, coherent=False)
-            valid_dr = si.is_valid()
-            dr.eval(si.t, si.p, si.n, si.shape, valid_dr)  # one kernel launch for all outputs
-            valid = np.asarray(valid_dr, dtype=bool)
-            registry = np.asarray(dr.reinterpret_array(self.mi.UInt32, si.shape), dtype=np.int64)
-            m = np.where(valid, self.scene.material_index(si.shape), -1)
-            hit_t = np.asarray(si.t, dtype=float)
-            through = valid & (m >= 0) & self._transparent[np.maximum(m, 0)]
-            done = ~through
-            idx = active[done]
-            t[idx] = np.where(valid[done], t_total[idx] + hit_t[done], np.inf)
-            p[idx] = np.asarray(si.p, dtype=float).T[done]
-            nrm[idx] = np.asarray(si.n, dtype=float).T[done]
-            mat[idx] = m[done]
-            shape[idx] = np.where(valid[done], registry[done], -1)
-            nxt = active[through]
-            step = hit_t[through] + _EPS
-            t_total[nxt] += step
-            o[nxt] = o[nxt] + step[:, None] * directions[nxt]
-            active = nxt
-            if len(active) == 0:
-                break
-        return t, p, nrm, mat, shape
-
-    def _shadow_rays(self, starts, rotation, translation):
-        """(H x N_rx,) True where the segment from start h (world, (H, 3)) to receive element j
-        of hit h's pose (rotation (H, 3, 3), translation (H, 3)) is unobstructed.
-
-        The segments are built in Dr.Jit from the H starts and N_rx elements (no (H x N_rx, 3)
-        NumPy temporaries, which cost several times the tests themselves); one any-hit test per
-        segment, and only the blocked ones, if the scene has acoustically transparent surfaces,
-        traced again through them."""
-        Float64, UInt32 = backend().Float64, backend().UInt32
-
-        mi = self.mi
-        rx = self.geometry.rx_positions
-        n_rx = len(rx)
-        index = dr.arange(UInt32, len(starts) * n_rx)
-        hit, element = index // n_rx, index % n_rx
-        per_hit = lambda column: dr.gather(Float64, to_jit(Float64, column), hit)  # noqa: E731
-        elem = [dr.gather(Float64, to_jit(Float64, rx[:, k]), element) for k in range(3)]
-        seg = [per_hit(translation[:, a] - starts[:, a])
-               + sum(per_hit(rotation[:, a, b]) * elem[b] for b in range(3)) for a in range(3)]
-        dist = dr.sqrt(sum(c * c for c in seg))
-        d = [c / dist for c in seg]
-        origin = [per_hit(starts[:, a]) + _EPS * d[a] for a in range(3)]
-        ray = mi.Ray3f(mi.Point3f(*(mi.Float(c) for c in origin)),
-                       mi.Vector3f(*(mi.Float(c) for c in d)), mi.Float(dist - 2 * _EPS),
-                       mi.Float(0.0), [])
-        blocked = self.scene.scene.ray_test(ray)
-        if not self._transparent.any():
-            dr.eval(blocked)
-            return ~np.asarray(blocked, dtype=bool)
-        dr.eval(blocked, origin, d, dist)
-        visible = ~np.asarray(blocked, dtype=bool)
-        recheck = np.flatnonzero(~visible)
-        if len(recheck):
-            o, v = (np.stack([np.asarray(c)[recheck] for c in x], axis=1) for x in (origin, d))
-            visible[recheck] = self._intersect(o, v)[0] >= np.asarray(dist)[recheck] - 2 * _EPS
-        return visible
 
     # ---- physics ---------------------------------------------------------------------------
     def _reflection(self, mats, cos_incidence):
@@ -340,12 +235,24 @@ class AcousticTracer:
         zc = self._z2[mats] * np.maximum(cos_incidence, 0.0)  # mats broadcasts against cos
         return (zc - self._z_air) / (zc + self._z_air)
 
-    def _scatter(self, points, normals, mats, d_in, dd1, dd2, t_unfold, mirror, steering,
-                 extra_gain, visible, roughness) -> HitPaths:
+    def _patch_edges(self, d_in, normals, dd1, dd2, t_unfold) -> np.ndarray:
+        """(H, 2, 3) edges of the patches [m]: the rays' cells (differentials dd1, dd2 (H, 3) of
+        the unit directions d_in, unfolded path lengths t_unfold (H,)) projected on the tangent
+        planes of the hits (zero for the paper model's point reflectors)."""
+        edges = np.zeros((len(d_in), 2, 3))
+        if self.settings.model == "physical":
+            d_dot_n = _rows_dot(d_in, normals)[:, None]
+            for k, dd in enumerate((dd1, dd2)):
+                edges[:, k] = t_unfold[:, None] * (dd - d_in * _rows_dot(dd, normals)[:, None] / d_dot_n)
+        return edges
+
+    def _scatter(self, points, normals, mats, edges, mirror, steering, extra_gain, visible,
+                 roughness) -> HitPaths:
         """Paths re-radiated by patches (see module docstring). All inputs are per hit
-        (``roughness``: (H,) unit phasors of the diffuse part, see :meth:`_roughness`;
-        ``mirror``: None, or the plane (points, normals) (H, 3) the transmit array is mirrored
-        in for unfolded bounces).
+        (``edges``: (H, 2, 3) from :meth:`_patch_edges`; ``roughness``: (H,) unit phasors of the
+        diffuse part, see :meth:`_roughness`; ``mirror``: None, or the plane (points, normals)
+        (H, 3) the transmit array is mirrored in for unfolded bounces; ``steering``: (H, N_tx)
+        firing delays [s], or None: unsteered).
 
         Incidence and emergence angles, reflection coefficients and the phase gradient of the
         patch integral are evaluated per transmit and receive element
@@ -354,15 +261,10 @@ class AcousticTracer:
         """
         g = self.geometry
         physical = self.settings.model == "physical"
-        edges = np.zeros((len(points), 2, 3))
-        if physical:  # patch edges on the tangent plane from the ray differentials (unfolded)
-            d_dot_n = _rows_dot(d_in, normals)[:, None]
-            for k, dd in enumerate((dd1, dd2)):
-                edges[:, k] = t_unfold[:, None] * (dd - d_in * _rows_dot(dd, normals)[:, None] / d_dot_n)
         area = _length(np.cross(edges[:, 0], edges[:, 1]))
         # Patch integral of exp(-j k (r_i + r_j)) over the parallelogram: A sinc(.) sinc(.), the
         # phase gradient being w_i + v_j; the sinc arguments split into TX and RX parts.
-        edges *= 0.5 * self.k / np.pi  # np.sinc(x) = sin(pi x) / (pi x)
+        edges = edges * (0.5 * self.k / np.pi)  # np.sinc(x) = sin(pi x) / (pi x)
         common = dict(ka=self.k * self.transducer.radius, log_attenuation=self._log_attenuation,
                       speed_of_sound=self.c)
         tx = element_factors(points, normals, edges, g.tx_positions,
@@ -389,42 +291,6 @@ class AcousticTracer:
                         tx.sinc, rx.sinc, tx.diffuse, rx.diffuse, diffuse)
 
     # ---- public ----------------------------------------------------------------------------
-    def _cast(self, rotation, translation, u, e1, e2, beam, a, b):
-        """Rays of beams ``beam`` (K,) through tangent-plane offsets (a, b) (K,) around their axes
-        u (B, 3) with bases e1, e2 (B, 3); returns directions (sensor frame), |u + a e1 + b e2|
-        and the intersection results of :meth:`_intersect`."""
-        v = u[beam] + a[:, None] * e1[beam] + b[:, None] * e2[beam]
-        norm_v = _length(v)
-        d = v / norm_v[:, None]
-        world_d = _rotate(rotation[beam], d)
-        return d, norm_v, self._intersect(translation[beam], world_d)
-
-    def _refine_mask(self, inside, t, n_w, shape):
-        """(..., n, n) cells to split: a 4-neighbour differs in hit, shape, normal or depth;
-        grown by one. Leading axes (beams) are independent grids."""
-        hit = np.isfinite(t)
-        cos_max = np.cos(self.settings.refine_normal_angle)
-        refine = np.zeros_like(inside)
-        for axis in (-2, -1):  # the two grid directions
-            sl_a = (Ellipsis, slice(None, -1), slice(None)) if axis == -2 else (Ellipsis, slice(None, -1))
-            sl_b = (Ellipsis, slice(1, None), slice(None)) if axis == -2 else (Ellipsis, slice(1, None))
-            both = inside[sl_a] & inside[sl_b]
-            both_hit = hit[sl_a] & hit[sl_b]
-            depth_a = np.where(hit[sl_a], t[sl_a], 0.0)
-            depth_b = np.where(hit[sl_b], t[sl_b], 0.0)
-            n_a = n_w[sl_a + (slice(None),)]
-            n_b = n_w[sl_b + (slice(None),)]
-            differ = (hit[sl_a] != hit[sl_b]) | (shape[sl_a] != shape[sl_b]) | (both_hit & (
-                (np.abs(np.sum(n_a * n_b, axis=-1)) < cos_max)
-                | (np.abs(depth_a - depth_b) > 0.05 * np.maximum(depth_a, depth_b))))
-            differ &= both
-            refine[sl_a] |= differ
-            refine[sl_b] |= differ
-        # Grow by one cell (8-neighbourhood): an edge or corner can cross a cell whose own ray
-        # and 4-neighbours all agree.
-        grow = np.ones((1,) * (refine.ndim - 2) + (3, 3), bool)
-        return binary_dilation(refine, structure=grow) & inside
-
     def trace(self, sensor_pose: Pose, direction, seed: int = 0) -> TraceResult:
         """Trace one beam steered to ``direction`` (3,) (sensor frame) from ``sensor_pose``.
 
@@ -456,37 +322,12 @@ class AcousticTracer:
         translation = np.stack([pose.translation for pose in sensor_poses])  # (B, 3)
         basis = [orthonormal_basis(axis) for axis in u]
         e1, e2 = np.array([e for e, _ in basis]), np.array([e for _, e in basis])
-        aa, bb, da, db, inside = self._grid
-        beam = np.repeat(np.arange(n_beams), aa.size)
-        a, b, wa, wb = (np.tile(x.ravel(), n_beams) for x in (aa, bb, da, db))
-        d, norm_v, (t, p_w, n_w, mats, shape) = self._cast(rotation, translation, u, e1, e2, beam, a, b)
-        keep = np.tile(inside.ravel(), n_beams)
-        m = s.refine
-        if m > 1 and s.model == "physical":
-            grids = (n_beams,) + aa.shape
-            split = (self._refine_mask(np.broadcast_to(inside, grids), t.reshape(grids),
-                                       n_w.reshape(grids + (3,)), shape.reshape(grids))
-                     & self._refinable).ravel()
-            if np.any(split):
-                keep &= ~split
-                frac = (np.arange(m) + 0.5) / m - 0.5
-                fa, fb = np.meshgrid(frac, frac, indexing="ij")
-                ca = (a[split, None] + fa.ravel()[None] * wa[split, None]).ravel()
-                cb = (b[split, None] + fb.ravel()[None] * wb[split, None]).ravel()
-                cwa = np.repeat(wa[split] / m, m * m)
-                cwb = np.repeat(wb[split] / m, m * m)
-                cbeam = np.repeat(beam[split], m * m)
-                cd, cnorm, (ct, cp, cn, cmat, _) = self._cast(rotation, translation, u, e1, e2,
-                                                              cbeam, ca, cb)
-                # Per beam: its kept rays in grid order, then its sub-rays.
-                order = np.argsort(np.concatenate([beam[keep], cbeam]), kind="stable")
-                a, b, wa, wb, d, norm_v, t, p_w, n_w, mats, beam = (
-                    np.concatenate([x[keep], y])[order] for x, y in
-                    ((a, ca), (b, cb), (wa, cwa), (wb, cwb), (d, cd), (norm_v, cnorm), (t, ct),
-                     (p_w, cp), (n_w, cn), (mats, cmat), (beam, cbeam)))
-                keep = np.ones(len(a), bool)
-        ray_count = np.bincount(beam[keep], minlength=n_beams)
-        hit = keep & np.isfinite(t) & (mats >= 0)
+        grids = (n_beams,) + self._grid[0].shape
+        refinable = None if s.model == "paper" else np.broadcast_to(self._refinable, grids)
+        (a, b, wa, wb, d, norm_v, t, p_w, n_w, mats, beam), ray_count = self._cast_grid(
+            rotation, translation, u, e1, e2,
+            tuple(np.broadcast_to(x, grids) for x in self._grid), refinable)
+        hit = np.isfinite(t) & (mats >= 0)
         hb = beam[hit]
         rot_h, trans_h = rotation[hb], translation[hb]
         x = _rotate(rot_h, p_w[hit] - trans_h, inverse=True)
@@ -501,8 +342,9 @@ class AcousticTracer:
         dd2 = (e2[hb] - d_h * _rows_dot(d_h, e2[hb])[:, None]) * inv * wb[hit][:, None]
         steering = g.steering_delays(u, self.c)[hb]  # (H, N_tx)
         rngs = [np.random.default_rng(seed) for seed in seeds]
-        parts = [(hb, self._scatter(x, n, mats_h, d_h, dd1, dd2, t[hit], None, steering,
-                                    taper.astype(complex), visible, self._roughness(mats_h, hb, rngs)))]
+        edges = self._patch_edges(d_h, n, dd1, dd2, t[hit])
+        parts = [(hb, self._scatter(x, n, mats_h, edges, None, steering, taper.astype(complex),
+                                    visible, self._roughness(mats_h, hb, rngs)))]
         if s.max_bounces == 2 and s.model == "physical":
             parts += self._second_bounce(rotation, translation, hb, x, n, mats_h, d_h, dd1, dd2,
                                          t[hit], taper, steering, rngs)
@@ -515,6 +357,62 @@ class AcousticTracer:
             paths = HitPaths.concatenate([part.select(r) for (_, part), r in zip(parts, rows)])
             results.append(TraceResult(paths, x[rows[0]], mats_h[rows[0]], int(ray_count[k])))
         return results
+
+    def shares_hits(self) -> bool:
+        """Whether :meth:`trace_union` serves these settings: the physical model, single
+        scattering, every transmit element at weight 1 (the paper's point reflectors are placed
+        per beam; specular multipath and weights are traced per beam)."""
+        s = self.settings
+        return s.model == "physical" and s.max_bounces == 1 and self._weights is None
+
+    def trace_union(self, sensor_pose: Pose, directions, seed: int = 0) -> HitPatches:
+        """Trace the union of the cones around beam directions (B, 3) (sensor frame) once, for
+        beams that share their hits: what a beam's echo depends on is the scene seen from the
+        pose, its steering only weights the elements. The grid is regular in angle, cells of
+        ``shared_ray_step``, each split into ``refine`` x ``refine`` rays within
+        ``refine_radius`` of a beam axis (the main lobes, where a beam's own grid is densest).
+
+        Args:
+            sensor_pose: world-from-sensor pose.
+            directions: the beam directions whose cones are traced.
+            seed: seed of the diffuse phases (same seed, same patches).
+        """
+        if not self.shares_hits():
+            raise ValueError("trace_union needs the physical model, max_bounces=1 and no "
+                             "transmit_weights")
+        u = _unit(np.asarray(directions, dtype=float).reshape(-1, 3))
+        u0, e1, e2, grid, refinable = self._union_grid(u, self.settings.shared_ray_step)
+        rotation, translation = sensor_pose.rotation, sensor_pose.translation
+        (a, b, wa, wb, d, norm_v, t, p_w, n_w, mats, _), ray_count = self._cast_grid(
+            rotation[None], translation[None], u0[None], e1[None], e2[None], grid, refinable,
+            dense=refinable)
+        hit = np.isfinite(t) & (mats >= 0)
+        d_h, mats_h = d[hit], mats[hit]
+        inv = (1.0 / norm_v[hit])[:, None]
+        dd1 = (e1 - d_h * (d_h @ e1)[:, None]) * inv * wa[hit][:, None]
+        dd2 = (e2 - d_h * (d_h @ e2)[:, None]) * inv * wb[hit][:, None]
+        world = lambda v: v @ rotation.T  # noqa: E731  (rows rotated into the world frame)
+        d_w = world(d_h)
+        n = _unit(n_w[hit])
+        n = np.where(_rows_dot(d_w, n)[:, None] > 0, -n, n)  # face the incoming ray
+        edges = self._patch_edges(d_w, n, world(dd1), world(dd2), t[hit])
+        roughness = self._roughness(mats_h, np.zeros(len(mats_h), int),
+                                    [np.random.default_rng(seed)])
+        return HitPatches(p_w[hit], n, edges, mats_h, self._union_weight(d_h @ u.T), roughness,
+                          sensor_pose, int(ray_count[0]))
+
+    def patch_paths(self, patches: HitPatches, sensor_pose: Pose) -> HitPaths:
+        """Unsteered paths (transmit delays: travel times) of shared ``patches`` through every
+        element pair of the array at ``sensor_pose``: element factors and receive visibility
+        computed for that pose, the patches as traced (the array may have moved since)."""
+        rotation, translation = sensor_pose.rotation, sensor_pose.translation
+        x = (patches.points - translation) @ rotation  # into the sensor frame
+        n = patches.normals @ rotation
+        count = len(x)
+        visible = self._visibility(np.broadcast_to(rotation, (count, 3, 3)),
+                                   np.broadcast_to(translation, (count, 3)), x, n)
+        return self._scatter(x, n, patches.materials, patches.edges @ rotation, None, None,
+                             patches.weight.astype(complex), visible, patches.roughness)
 
     def _weighted(self, paths: HitPaths) -> HitPaths:
         """``paths`` with transmit element i's factors times ``transmit_weights[i]``, the
@@ -540,16 +438,6 @@ class AcousticTracer:
                 out[rows] = np.exp(2j * np.pi * rng.uniform(0.0, 1.0, bounds[k + 1] - bounds[k]))
         return out
 
-    def _visibility(self, rotation, translation, points, normals) -> np.ndarray:
-        """(H, N_rx) 1.0 where receive element j sees hit h, else 0.0; points and normals (H, 3)
-        in the sensor frame of poses (rotation (H, 3, 3), translation (H, 3))."""
-        rx = self.geometry.rx_positions
-        if not self.settings.shadow_rays or len(points) == 0:
-            return np.ones((len(points), len(rx)))
-        start = _rotate(rotation, points + _EPS * normals) + translation  # (H, 3) world
-        visible = self._shadow_rays(start, rotation, translation)
-        return visible.reshape(len(points), len(rx)).astype(float)
-
     def _second_bounce(self, rotation, translation, beam, x1, n1, mats1, d1, dd1, dd2, t1, taper,
                        steering, rngs) -> list[tuple[np.ndarray, HitPaths]]:
         """Specular continuation of every first-bounce ray, scattered at its second hit:
@@ -573,10 +461,11 @@ class AcousticTracer:
         n1h = n1[hit]
         refl = lambda v: v - 2 * _rows_dot(v, n1h)[:, None] * n1h  # noqa: E731
         mats2 = mats[hit]
+        edges = self._patch_edges(d2h, n2, refl(dd1[hit]), refl(dd2[hit]),
+                                  t1[hit] + t[hit] + _EPS)
         return [(beam[hit], self._scatter(
-            x2, n2, mats2, d2h, refl(dd1[hit]), refl(dd2[hit]), t1[hit] + t[hit] + _EPS,
-            (x1[hit], n1h), steering[hit], (taper[hit] * r1).astype(complex), visible,
-            self._roughness(mats2, beam[hit], rngs)))]
+            x2, n2, mats2, edges, (x1[hit], n1h), steering[hit],
+            (taper[hit] * r1).astype(complex), visible, self._roughness(mats2, beam[hit], rngs)))]
 
     def direct_paths(self, direction) -> Paths:
         """Direct transmitter -> receiver paths (cross-talk) for a beam steered to ``direction``."""

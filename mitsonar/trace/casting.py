@@ -1,0 +1,321 @@
+"""Ray grids and ray casting of the acoustic trace: where the rays go and what they hit.
+
+A beam's rays leave the transmit origin on a grid over a cone around the beam axis, regular in a
+warped tangent-plane coordinate (deterministic importance sampling: each ray owns an exactly
+known cell of solid angle; :class:`~mitsonar.trace.tracer.TraceSettings` ``ray_density``).
+:class:`RayCaster` holds that grid, casts rays through the scene (stepping through acoustically
+transparent surfaces), refines cells at silhouettes, material changes, depth jumps and curved
+surfaces into sub-rays, and tests the visibility of receive elements from hits (shadow rays).
+The scattering physics on the hits is :mod:`mitsonar.trace.tracer`'s.
+"""
+
+from __future__ import annotations
+
+import drjit as dr
+import numpy as np
+from scipy.ndimage import binary_dilation
+
+from mitsonar.frames import orthonormal_basis
+from mitsonar.jit import backend, to_jit
+from mitsonar.physics.array import ArrayGeometry
+from mitsonar.scene.loading import AcousticScene, mitsuba
+from mitsonar.scene.rays import rays
+
+#: Offset of secondary ray origins from a surface [m].
+_EPS = 1e-4
+#: Acoustically transparent layers a ray may step through.
+_MAX_TRANSPARENT_LAYERS = 8
+
+
+def _warped_grid(n: int, half_extent: float, sigma: float, floor: float):
+    """Cell centres and widths (n,) of a 1-D grid on [-E, E] with density floor + gauss(sigma)."""
+    a = np.linspace(-half_extent, half_extent, 4097)
+    density = floor + np.exp(-0.5 * (a / sigma) ** 2)
+    cdf = np.concatenate([[0.0], np.cumsum(0.5 * (density[1:] + density[:-1]) * np.diff(a))])
+    edges = np.interp(np.linspace(0.0, cdf[-1], n + 1), cdf, a)
+    return 0.5 * (edges[1:] + edges[:-1]), np.diff(edges)
+
+
+def _rows_dot(a, b):
+    """Dot products of 3-vectors along the last axis (broadcasting): explicit, which NumPy runs
+    several times faster than einsum or matmul over so short an axis."""
+    return a[..., 0] * b[..., 0] + a[..., 1] * b[..., 1] + a[..., 2] * b[..., 2]
+
+
+def _length(v):
+    """Lengths of 3-vectors along the last axis (faster than np.linalg.norm there)."""
+    return np.sqrt(_rows_dot(v, v))
+
+
+def _unit(v):
+    return v / _length(v)[..., None]
+
+
+def _rotate(rotation, v, inverse: bool = False):
+    """Rows (K, 3) rotated by their own matrices (K, 3, 3) (transposed with ``inverse``)."""
+    return np.einsum("kji,kj->ki" if inverse else "kij,kj->ki", rotation, v)
+
+
+class RayCaster:
+    """Ray grid, ray casts, refinement and shadow rays in one loaded scene.
+
+    Args:
+        scene: the loaded acoustic scene.
+        geometry: arrays of the sensor head.
+        settings: the trace's :class:`~mitsonar.trace.tracer.TraceSettings` (grid, refinement,
+            shadow rays).
+    """
+
+    def __init__(self, scene: AcousticScene, geometry: ArrayGeometry, settings):
+        self.mi = mitsuba()
+        self.scene = scene
+        self.geometry = geometry
+        self.settings = settings
+        self._transparent = np.array([m.transparent for m in scene.materials])
+        s = settings
+        if s.model == "paper":
+            offsets = (np.arange(s.paper_grid) - (s.paper_grid - 1) / 2) * np.tan(s.paper_spacing)
+            aa, bb = np.meshgrid(offsets, offsets, indexing="ij")
+            zero = np.zeros_like(aa)
+            self._grid = (aa, bb, zero, zero, np.ones(aa.shape, bool))
+        else:
+            half = np.tan(s.cone_half_angle)
+            sigma = 1.5 * np.tan(s.main_lobe_width) / 2.355
+            if s.ray_density == "beam":
+                centres, widths = _warped_grid(s.rays_per_axis, half, sigma, s.importance_floor)
+            else:
+                edges = np.tan(np.linspace(-s.cone_half_angle, s.cone_half_angle,
+                                           s.rays_per_axis + 1))
+                centres, widths = 0.5 * (edges[1:] + edges[:-1]), np.diff(edges)
+            aa, bb = np.meshgrid(centres, centres, indexing="ij")
+            da, db = np.meshgrid(widths, widths, indexing="ij")
+            self._grid = (aa, bb, da, db, np.hypot(aa, bb) <= half)
+            self._refinable = np.hypot(aa, bb) <= np.tan(s.refine_radius)
+
+    def _taper(self, a, b):
+        """Weight of a ray at tangent-plane offsets (a, b): 1 inside, fading to 0 at the cone
+        edge."""
+        if self.settings.model == "paper":
+            return np.ones_like(a)
+        return self._fade(np.hypot(a, b) / np.tan(self.settings.cone_half_angle))
+
+    def _fade(self, rho):
+        """Weight at tangent-plane radius ``rho`` in units of the cone's: 1 inside, fading to 0
+        over the outer ``taper`` of the cone."""
+        s = self.settings
+        fade = np.clip((1.0 - rho) / s.taper, 0.0, 1.0) if s.taper > 0 else (rho <= 1).astype(float)
+        return np.sin(0.5 * np.pi * fade) ** 2
+
+    def _union_weight(self, cos):
+        """Weight of rays whose cosines to the beam axes are ``cos`` (..., B): the largest of the
+        beams' cone weights (:meth:`_fade`), so the union of the cones fades at its edge as each
+        cone does."""
+        tan = np.sqrt(np.maximum(1.0 - cos * cos, 0.0)) / np.where(cos > 0, cos, 1.0)
+        rho = np.where(cos > 0, tan / np.tan(self.settings.cone_half_angle), np.inf)
+        return self._fade(rho).max(axis=-1)
+
+    def _union_grid(self, directions, step: float):
+        """Ray grid over the union of the cones around unit beam axes ``directions`` (B, 3),
+        regular in angle with ``step`` [rad] along both axes of the tangent plane of their mean
+        axis (cells of equal angle, each with its exact tangent-plane widths) and clipped at
+        80 deg from it. Returns the axis u0 (3,), tangent basis e1, e2 (3,), the grid (a, b, wa,
+        wb, inside) for :meth:`_cast_grid`, each (1, n_a, n_b) (inside: a cell whose centre
+        some cone weights), and the cells within ``refine_radius`` of a beam axis (the beams'
+        main lobes, which :meth:`_cast_grid` splits as ``dense``)."""
+        s = self.settings
+        u0 = _unit(directions.mean(axis=0))
+        e1, e2 = orthonormal_basis(u0)
+        along = directions @ u0
+        limit = np.radians(80.0)  # the tangent plane is kept away from 90 deg
+
+        def axis(offsets):
+            angles = np.arctan2(offsets, along)
+            low = max(angles.min() - s.cone_half_angle, -limit)
+            high = min(angles.max() + s.cone_half_angle, limit)
+            edges = np.tan(np.linspace(low, high, max(int(np.ceil((high - low) / step)), 1) + 1))
+            return 0.5 * (edges[1:] + edges[:-1]), np.diff(edges)
+
+        (ca, wa), (cb, wb) = axis(directions @ e1), axis(directions @ e2)
+        aa, bb = np.meshgrid(ca, cb, indexing="ij")
+        da, db = np.meshgrid(wa, wb, indexing="ij")
+        cos = _unit(u0 + aa[..., None] * e1 + bb[..., None] * e2) @ directions.T  # (n_a, n_b, B)
+        inside = self._union_weight(cos) > 0
+        refinable = cos.max(axis=-1) >= np.cos(s.refine_radius)
+        return u0, e1, e2, tuple(x[None] for x in (aa, bb, da, db, inside)), refinable[None]
+
+    def _intersect(self, origins, directions):
+        """First non-transparent hit of rays (world frame).
+
+        Returns t (inf: miss), p, n (world), material index (-1: miss) and shape registry id.
+        """
+        n_rays = len(origins)
+        t_total = np.zeros(n_rays)
+        t = np.full(n_rays, np.inf)
+        p = np.zeros((n_rays, 3))
+        nrm = np.zeros((n_rays, 3))
+        mat = np.full(n_rays, -1)
+        shape = np.full(n_rays, -1)
+        active = np.arange(n_rays)
+        o = origins.copy()
+        for _ in range(_MAX_TRANSPARENT_LAYERS):  # loop over layers, each vectorised over rays
+            si = self.scene.scene.ray_intersect(rays(o[active], directions[active]),
+                                                ray_flags=self.mi.RayFlags.Minimal, coherent=False)
+            valid_dr = si.is_valid()
+            dr.eval(si.t, si.p, si.n, si.shape, valid_dr)  # one kernel launch for all outputs
+            valid = np.asarray(valid_dr, dtype=bool)
+            registry = np.asarray(dr.reinterpret_array(self.mi.UInt32, si.shape), dtype=np.int64)
+            m = np.where(valid, self.scene.material_index(si.shape), -1)
+            hit_t = np.asarray(si.t, dtype=float)
+            through = valid & (m >= 0) & self._transparent[np.maximum(m, 0)]
+            done = ~through
+            idx = active[done]
+            t[idx] = np.where(valid[done], t_total[idx] + hit_t[done], np.inf)
+            p[idx] = np.asarray(si.p, dtype=float).T[done]
+            nrm[idx] = np.asarray(si.n, dtype=float).T[done]
+            mat[idx] = m[done]
+            shape[idx] = np.where(valid[done], registry[done], -1)
+            nxt = active[through]
+            step = hit_t[through] + _EPS
+            t_total[nxt] += step
+            o[nxt] = o[nxt] + step[:, None] * directions[nxt]
+            active = nxt
+            if len(active) == 0:
+                break
+        return t, p, nrm, mat, shape
+
+    def _shadow_rays(self, starts, rotation, translation):
+        """(H x N_rx,) True where the segment from start h (world, (H, 3)) to receive element j
+        of hit h's pose (rotation (H, 3, 3), translation (H, 3)) is unobstructed.
+
+        The segments are built in Dr.Jit from the H starts and N_rx elements (no (H x N_rx, 3)
+        NumPy temporaries, which cost several times the tests themselves); one any-hit test per
+        segment, and only the blocked ones, if the scene has acoustically transparent surfaces,
+        traced again through them."""
+        Float64, UInt32 = backend().Float64, backend().UInt32
+
+        mi = self.mi
+        rx = self.geometry.rx_positions
+        n_rx = len(rx)
+        index = dr.arange(UInt32, len(starts) * n_rx)
+        hit, element = index // n_rx, index % n_rx
+        per_hit = lambda column: dr.gather(Float64, to_jit(Float64, column), hit)  # noqa: E731
+        elem = [dr.gather(Float64, to_jit(Float64, rx[:, k]), element) for k in range(3)]
+        seg = [per_hit(translation[:, a] - starts[:, a])
+               + sum(per_hit(rotation[:, a, b]) * elem[b] for b in range(3)) for a in range(3)]
+        dist = dr.sqrt(sum(c * c for c in seg))
+        d = [c / dist for c in seg]
+        origin = [per_hit(starts[:, a]) + _EPS * d[a] for a in range(3)]
+        ray = mi.Ray3f(mi.Point3f(*(mi.Float(c) for c in origin)),
+                       mi.Vector3f(*(mi.Float(c) for c in d)), mi.Float(dist - 2 * _EPS),
+                       mi.Float(0.0), [])
+        blocked = self.scene.scene.ray_test(ray)
+        if not self._transparent.any():
+            dr.eval(blocked)
+            return ~np.asarray(blocked, dtype=bool)
+        dr.eval(blocked, origin, d, dist)
+        visible = ~np.asarray(blocked, dtype=bool)
+        recheck = np.flatnonzero(~visible)
+        if len(recheck):
+            o, v = (np.stack([np.asarray(c)[recheck] for c in x], axis=1) for x in (origin, d))
+            visible[recheck] = self._intersect(o, v)[0] >= np.asarray(dist)[recheck] - 2 * _EPS
+        return visible
+
+    def _cast(self, rotation, translation, u, e1, e2, beam, a, b):
+        """Rays of beams ``beam`` (K,) through tangent-plane offsets (a, b) (K,) around their axes
+        u (B, 3) with bases e1, e2 (B, 3); returns directions (sensor frame), |u + a e1 + b e2|
+        and the intersection results of :meth:`_intersect`."""
+        v = u[beam] + a[:, None] * e1[beam] + b[:, None] * e2[beam]
+        norm_v = _length(v)
+        d = v / norm_v[:, None]
+        world_d = _rotate(rotation[beam], d)
+        return d, norm_v, self._intersect(translation[beam], world_d)
+
+    def _refine_mask(self, inside, t, n_w, shape):
+        """(..., n, n) cells to split: a 4-neighbour differs in hit, shape, normal or depth;
+        grown by one. Leading axes (beams) are independent grids."""
+        hit = np.isfinite(t)
+        cos_max = np.cos(self.settings.refine_normal_angle)
+        refine = np.zeros_like(inside)
+        for axis in (-2, -1):  # the two grid directions
+            sl_a = (Ellipsis, slice(None, -1), slice(None)) if axis == -2 else (Ellipsis, slice(None, -1))
+            sl_b = (Ellipsis, slice(1, None), slice(None)) if axis == -2 else (Ellipsis, slice(1, None))
+            both = inside[sl_a] & inside[sl_b]
+            both_hit = hit[sl_a] & hit[sl_b]
+            depth_a = np.where(hit[sl_a], t[sl_a], 0.0)
+            depth_b = np.where(hit[sl_b], t[sl_b], 0.0)
+            n_a = n_w[sl_a + (slice(None),)]
+            n_b = n_w[sl_b + (slice(None),)]
+            differ = (hit[sl_a] != hit[sl_b]) | (shape[sl_a] != shape[sl_b]) | (both_hit & (
+                (np.abs(np.sum(n_a * n_b, axis=-1)) < cos_max)
+                | (np.abs(depth_a - depth_b) > 0.05 * np.maximum(depth_a, depth_b))))
+            differ &= both
+            refine[sl_a] |= differ
+            refine[sl_b] |= differ
+        # Grow by one cell (8-neighbourhood): an edge or corner can cross a cell whose own ray
+        # and 4-neighbours all agree.
+        grow = np.ones((1,) * (refine.ndim - 2) + (3, 3), bool)
+        return binary_dilation(refine, structure=grow) & inside
+
+    def _visibility(self, rotation, translation, points, normals) -> np.ndarray:
+        """(H, N_rx) 1.0 where receive element j sees hit h, else 0.0; points and normals (H, 3)
+        in the sensor frame of poses (rotation (H, 3, 3), translation (H, 3))."""
+        rx = self.geometry.rx_positions
+        if not self.settings.shadow_rays or len(points) == 0:
+            return np.ones((len(points), len(rx)))
+        start = _rotate(rotation, points + _EPS * normals) + translation  # (H, 3) world
+        visible = self._shadow_rays(start, rotation, translation)
+        return visible.reshape(len(points), len(rx)).astype(float)
+
+
+    def _cast_grid(self, rotation, translation, u, e1, e2, grid, refinable, dense=None):
+        """Cast the rays of G grids of cells, grid g around axis u[g] (G, 3) with tangent basis
+        e1[g], e2[g] from pose (rotation[g] (3, 3), translation[g] (3,)), and refine them.
+
+        Args:
+            grid: (a, b, wa, wb, inside), each (G, n_a, n_b): cell centres and widths in the
+                tangent plane, and the cells traced.
+            refinable: (G, n_a, n_b) cells that may be split at silhouettes (or None).
+            dense: (G, n_a, n_b) cells split whatever they hit (or None).
+        Returns:
+            The rays kept (each grid's cells in grid order, then its sub-rays), as arrays over
+            rays: tangent offsets a, b and widths wa, wb, directions d (sensor frame),
+            |u + a e1 + b e2|, t (inf: miss), world hit points and normals, material index,
+            and grid index; and the ray count per grid (G,).
+        """
+        s = self.settings
+        inside = grid[4]
+        shape = inside.shape
+        beam = np.repeat(np.arange(shape[0]), shape[1] * shape[2])
+        a, b, wa, wb = (x.ravel() for x in grid[:4])
+        keep = inside.ravel().copy()
+        t = np.full(len(a), np.inf)
+        p_w, n_w = np.zeros((len(a), 3)), np.zeros((len(a), 3))
+        mats, shapes = np.full(len(a), -1), np.full(len(a), -1)
+        d, norm_v = np.zeros((len(a), 3)), np.ones(len(a))
+        d[keep], norm_v[keep], (t[keep], p_w[keep], n_w[keep], mats[keep], shapes[keep]) = \
+            self._cast(rotation, translation, u, e1, e2, beam[keep], a[keep], b[keep])
+        m = s.refine
+        if m > 1 and s.model == "physical":
+            split = (self._refine_mask(inside, t.reshape(shape), n_w.reshape(shape + (3,)),
+                                       shapes.reshape(shape)) & refinable).ravel()
+            if dense is not None:
+                split |= (dense & inside).ravel()
+            if np.any(split):
+                keep &= ~split
+                frac = (np.arange(m) + 0.5) / m - 0.5
+                fa, fb = np.meshgrid(frac, frac, indexing="ij")
+                ca = (a[split, None] + fa.ravel()[None] * wa[split, None]).ravel()
+                cb = (b[split, None] + fb.ravel()[None] * wb[split, None]).ravel()
+                cwa = np.repeat(wa[split] / m, m * m)
+                cwb = np.repeat(wb[split] / m, m * m)
+                cbeam = np.repeat(beam[split], m * m)
+                cd, cnorm, (ct, cp, cn, cmat, _) = self._cast(rotation, translation, u, e1, e2,
+                                                              cbeam, ca, cb)
+                # Per grid: its kept rays in grid order, then its sub-rays.
+                order = np.argsort(np.concatenate([beam[keep], cbeam]), kind="stable")
+                return tuple(np.concatenate([x[keep], y])[order] for x, y in
+                             ((a, ca), (b, cb), (wa, cwa), (wb, cwb), (d, cd), (norm_v, cnorm),
+                              (t, ct), (p_w, cp), (n_w, cn), (mats, cmat), (beam, cbeam))), \
+                    np.bincount(np.concatenate([beam[keep], cbeam]), minlength=shape[0])
+        rays_kept = tuple(x[keep] for x in (a, b, wa, wb, d, norm_v, t, p_w, n_w, mats, beam))
+        return rays_kept, np.bincount(beam[keep], minlength=shape[0])
