@@ -25,7 +25,9 @@ import mitsonar
 from mitsonar.evaluation.fidelity import fidelity
 from mitsonar.physics.transducer import Transducer
 from mitsonar.scene.rays import rays
+from mitsonar.sensors.imaging_sonar import ImagingSonar
 from mitsonar.sensors.ofdm_sonar import OfdmSonar
+from mitsonar.signal.detection import ECHO_MODES
 from mitsonar.evaluation.reference import direct_summation
 from mitsonar.sensors.sonar import TRACE_BATCH
 
@@ -207,6 +209,24 @@ def main(argv=None) -> int:
         shared = OfdmSonar(fast.sonar, shared_hits=True)
         report_depths(shared.frame(schedule, lambda t: pose).depth, per_beam,
                       "per-beam trace (shared hits)")
+
+    # Echo modes (issue 28): what keeping every echo, every range cell or a cone image per beam
+    # costs per detection-only frame beside the first echo; and one single-ping receive image.
+    print("echo modes, detection-only OFDM frame (seconds per frame, ratio to the first echo):")
+    seconds = {}
+    for mode in ECHO_MODES:
+        config = replace(sonar.config, detection=replace(sonar.config.detection, echoes=mode))
+        moded = OfdmSonar(mitsonar.Sonar(sonar.scene, config))
+        seconds[mode], frame = _timed(lambda: moded.frame(schedule, lambda t: pose,
+                                                          channels=False))
+        print(f"  {mode:<32s} {seconds[mode]:12.4g} s/frame  {len(frame.echo_table):5d} echoes  "
+              f"ratio {seconds[mode] / seconds['first']:.3g} (goal: at most 2)")
+        lines.append((f"echo mode {mode}", seconds[mode], seconds[mode] / seconds["first"]))
+    imager = ImagingSonar(sonar)
+    t_image, image = _timed(lambda: imager.image(pose))
+    print(f"  {'single-ping receive image':<32s} {t_image:12.4g} s/image  {len(image):5d} "
+          f"points  (one image per {imager.cycle_time * 1e3:.0f} ms listening cycle)")
+    lines.append(("single-ping image", t_image, t_image))
 
     # Fast synthesis vs the direct summation of (1)(3) on the same paths (paper model, ideal
     # transducers, 400 kHz: both agree to ~2e-4 of the peak), recorded to 1 m past the middle
