@@ -11,7 +11,7 @@ from that pose). ``--presets`` also takes two variants of the default that test 
 walls (:data:`VARIANTS`).
 
 Ground truth of every beam, cast with the sonar's own acoustic ray caster (the first surface
-that is not acoustically transparent, ``AcousticTracer._intersect``) from the transmit origin
+that is not acoustically transparent, ``AcousticTracer.intersect``) from the transmit origin
 (the sensor origin):
 
 * the **axis hit**: the first surface along the beam axis, its material, the incidence angle
@@ -162,11 +162,11 @@ def beam_truth(tracer, pose, directions, cone: Cone) -> BeamTruth:
     AcousticTracer`: the first surface that is not acoustically transparent)."""
     axes = pose.transform_vectors(np.asarray(directions, dtype=float).reshape(-1, 3))
     origins = np.repeat(pose.translation[None], len(axes), axis=0)  # the transmit origin
-    axis_range, _, normal, material, _ = tracer._intersect(origins, axes)
+    axis_range, _, normal, material, _ = tracer.intersect(origins, axes)
     cos = np.abs(np.einsum("ij,ij->i", axes, normal))
     incidence = np.where(material >= 0, np.arccos(np.clip(cos, 0.0, 1.0)), np.nan)
     around = pose.transform_vectors(cone.directions.reshape(-1, 3))
-    reach = tracer._intersect(np.repeat(pose.translation[None], len(around), axis=0), around)[0]
+    reach = tracer.intersect(np.repeat(pose.translation[None], len(around), axis=0), around)[0]
     cone_range = np.where(cone.inside, reach.reshape(cone.inside.shape), np.inf).min(axis=1)
     return BeamTruth(material, incidence, axis_range, cone_range)
 

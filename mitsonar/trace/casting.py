@@ -143,8 +143,9 @@ class RayCaster:
         refinable = cos.max(axis=-1) >= np.cos(s.refine_radius)
         return u0, e1, e2, tuple(x[None] for x in (aa, bb, da, db, inside)), refinable[None]
 
-    def _intersect(self, origins, directions):
-        """First non-transparent hit of rays (world frame).
+    def intersect(self, origins, directions):
+        """First non-transparent hit of rays from ``origins`` (R, 3) [m] along unit ``directions``
+        (R, 3), world frame (the sonar's own caster: acoustically transparent surfaces are passed).
 
         Returns t (inf: miss), p, n (world), material index (-1: miss) and shape registry id.
         """
@@ -217,18 +218,18 @@ class RayCaster:
         recheck = np.flatnonzero(~visible)
         if len(recheck):
             o, v = (np.stack([np.asarray(c)[recheck] for c in x], axis=1) for x in (origin, d))
-            visible[recheck] = self._intersect(o, v)[0] >= np.asarray(dist)[recheck] - 2 * _EPS
+            visible[recheck] = self.intersect(o, v)[0] >= np.asarray(dist)[recheck] - 2 * _EPS
         return visible
 
     def _cast(self, rotation, translation, u, e1, e2, beam, a, b):
         """Rays of beams ``beam`` (K,) through tangent-plane offsets (a, b) (K,) around their axes
         u (B, 3) with bases e1, e2 (B, 3); returns directions (sensor frame), |u + a e1 + b e2|
-        and the intersection results of :meth:`_intersect`."""
+        and the intersection results of :meth:`intersect`."""
         v = u[beam] + a[:, None] * e1[beam] + b[:, None] * e2[beam]
         norm_v = _length(v)
         d = v / norm_v[:, None]
         world_d = _rotate(rotation[beam], d)
-        return d, norm_v, self._intersect(translation[beam], world_d)
+        return d, norm_v, self.intersect(translation[beam], world_d)
 
     def _refine_mask(self, inside, t, n_w, shape):
         """(..., n, n) cells to split: a 4-neighbour differs in hit, shape, normal or depth;

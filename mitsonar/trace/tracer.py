@@ -446,7 +446,7 @@ class AcousticTracer(RayCaster):
         d2 = reflect(d1)
         rot, trans = rotation[beam], translation[beam]
         start = _rotate(rot, x1 + _EPS * n1) + trans
-        t, p_w, n_w, mats, _ = self._intersect(start, _rotate(rot, d2))
+        t, p_w, n_w, mats, _ = self.intersect(start, _rotate(rot, d2))
         hit = np.isfinite(t) & (mats >= 0)
         if not np.any(hit):
             return []
