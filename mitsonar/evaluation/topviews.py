@@ -50,8 +50,8 @@ def save_top_views(path, rows: dict, title: str, max_points: int = 80_000) -> No
     points are drawn lowest first, at most ``max_points`` a panel (a seeded subset)."""
     plt = _pyplot()
     cols = max(len(panels) for _, panels in rows.values())
-    fig, axes = plt.subplots(len(rows), cols, squeeze=False,
-                             figsize=(4.6 * cols, 4.3 * len(rows) + 1.0))
+    height = 4.3 * len(rows) + 1.2  # [inches]; the colour bar and its label take the last 1.2
+    fig, axes = plt.subplots(len(rows), cols, squeeze=False, figsize=(4.6 * cols, height))
     rng = np.random.default_rng(0)
     im = None
     for row, (view, panels) in zip(axes, rows.values()):
@@ -80,9 +80,9 @@ def save_top_views(path, rows: dict, title: str, max_points: int = 80_000) -> No
         for ax in row[len(panels):]:
             ax.set_visible(False)
     fig.suptitle(title, fontsize=10)
-    fig.tight_layout(rect=(0, 0.08, 1, 0.98))
+    fig.tight_layout(rect=(0, 1.2 / height, 1, 1 - 0.3 / height))
     if im is not None:
-        bar = fig.add_axes((0.25, 0.05, 0.5, 0.008))
+        bar = fig.add_axes((0.25, 0.75 / height, 0.5, 0.1 / height))
         fig.colorbar(im, cax=bar, orientation="horizontal",
                      label=f"distance to ground truth [cm] (clipped at {100 * ERROR_CLIP:.0f})")
     save_png(fig, path)
