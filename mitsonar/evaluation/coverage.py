@@ -1,0 +1,96 @@
+"""Completeness as a map grows: the fraction of ground-truth samples covered by the cloud taken
+so far, at checkpoints along a drive, against the distance driven (the curves of the sensor
+comparison, ``experiments/comparison.py``).
+
+Covered is :func:`mitsonar.evaluation.metrics.evaluate`'s definition: a sample is covered when a
+reconstructed point lies within the threshold of it."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from mitsonar.plots import _pyplot, save_png
+from mitsonar.sensors.trajectory import Trajectory
+from mitsonar.validation import check_positive
+
+#: Poses are sampled this often to measure the distance driven [s].
+DISTANCE_STEP = 0.05
+
+
+def covered_fraction(points, sample_points, threshold: float) -> float:
+    """Fraction of the samples (M, 3) [m] with one of the points (N, 3) [m] within ``threshold``
+    [m] (NaN without samples; 0 without points)."""
+    from scipy.spatial import cKDTree
+
+    check_positive("threshold [m]", threshold)
+    s = np.asarray(sample_points, dtype=float).reshape(-1, 3)
+    p = np.asarray(points, dtype=float).reshape(-1, 3)
+    if not len(s):
+        return float("nan")
+    if not len(p):
+        return 0.0
+    gap, _ = cKDTree(p).query(s, distance_upper_bound=threshold)
+    return float(np.mean(gap <= threshold))
+
+
+def distance_driven(trajectory: Trajectory, times) -> np.ndarray:
+    """Path length of the robot's chassis [m] from the trajectory's start to each of ``times``
+    (K,) [s] (turns on the spot add nothing), measured on poses ``DISTANCE_STEP`` apart."""
+    t = np.asarray(times, dtype=float)
+    end = float(np.max(t)) if t.size else 0.0
+    grid = np.append(np.arange(0.0, end, DISTANCE_STEP), end)
+    xy = trajectory.poses_at(grid)[:, :2]
+    length = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(xy, axis=0), axis=1))])
+    return np.interp(t, grid, length)
+
+
+@dataclass(frozen=True)
+class Curve:
+    """Completeness of one sensor's map along a drive.
+
+    Attributes:
+        label: the sensor (and preset) as drawn.
+        distance: (K,) distance driven at each checkpoint [m].
+        completeness: (K,) fraction of the observable samples covered at the fine threshold.
+        completeness_voxel: (K,) the same for the cloud voxelised at the voxel size, covered
+            within it.
+    """
+
+    label: str
+    distance: np.ndarray
+    completeness: np.ndarray
+    completeness_voxel: np.ndarray
+
+
+def save_completeness_figure(path, curves: dict, fine: float, voxel: float,
+                             title: str = "") -> None:
+    """One panel per scene (``curves``: scene -> list of :class:`Curve`): completeness [%]
+    against the distance driven [m], at ``fine`` [m] (solid) and at the ``voxel`` size [m] of
+    the voxelised clouds (dashed), a colour per curve."""
+    plt = _pyplot()
+    n = max(len(curves), 1)
+    cols = min(n, 4)
+    rows = int(np.ceil(n / cols))
+    fig, axes = plt.subplots(rows, cols, squeeze=False, figsize=(4.6 * cols, 3.9 * rows + 0.8))
+    colours = plt.get_cmap("tab10")
+    for ax, (scene, scene_curves) in zip(axes.flat, curves.items()):
+        for k, c in enumerate(scene_curves):
+            ax.plot(c.distance, 100 * np.asarray(c.completeness), "-o", ms=3, lw=1.2,
+                    color=colours(k % 10), label=c.label)
+            ax.plot(c.distance, 100 * np.asarray(c.completeness_voxel), "--", lw=1.0,
+                    color=colours(k % 10))
+        ax.set_title(scene, fontsize=10)
+        ax.set_xlabel("distance driven [m]")
+        ax.set_ylabel("completeness [%]")
+        ax.set_ylim(0, 100)
+        ax.grid(True, lw=0.3, alpha=0.5)
+        ax.legend(fontsize=7, loc="upper left")
+    for ax in axes.flat[len(curves):]:
+        ax.set_visible(False)
+    fig.suptitle(title or f"completeness along the drive: solid within {100 * fine:.0f} cm, "
+                          f"dashed {100 * voxel:.0f} cm voxels within {100 * voxel:.0f} cm",
+                 fontsize=10)
+    fig.tight_layout(rect=(0, 0, 1, 0.96))
+    save_png(fig, path)

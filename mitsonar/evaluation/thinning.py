@@ -1,0 +1,61 @@
+"""Point clouds brought to a common resolution before they are scored: one seeded random point
+per voxel (:class:`VoxelThinner`, the ground truth's 1 cm: noise is not averaged away) or the mean
+of each voxel's points (:func:`voxel_means`, a voxel map's own resolution)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from mitsonar.recon.voxelmap import VoxelMapSettings, voxelise
+from mitsonar.validation import check_positive
+
+
+class VoxelThinner:
+    """One point per occupied ``voxel`` [m] cube of all the points added, a seeded random one
+    of them (each point draws a key from ``default_rng(seed)`` as it comes; a cube keeps its
+    smallest-key point), kept as the points come: at most ``batch`` points wait between two
+    compactions. The result does not depend on when compactions happen, so :meth:`result` may
+    be read at any time (the cloud so far) without changing the final one."""
+
+    def __init__(self, voxel: float = 0.01, seed: int = 0, batch: int = 4_000_000):
+        check_positive("VoxelThinner.voxel [m]", voxel)
+        self.voxel, self.batch = voxel, batch
+        self.rng = np.random.default_rng(seed)
+        self.points, self.keys = np.zeros((0, 3)), np.zeros(0)
+        self.waiting, self.raw = [], 0
+
+    def add(self, points) -> None:
+        """Add points (N, 3) [m]."""
+        self.waiting.append(np.asarray(points, dtype=float).reshape(-1, 3))
+        self.raw += len(self.waiting[-1])
+        if sum(len(p) for p in self.waiting) >= self.batch:
+            self._compact()
+
+    def _compact(self) -> None:
+        new = np.concatenate(self.waiting) if self.waiting else np.zeros((0, 3))
+        points = np.concatenate([self.points, new])
+        keys = np.concatenate([self.keys, self.rng.random(len(new))])
+        cells = np.floor(points / self.voxel).astype(np.int64)
+        order = np.lexsort((keys, cells[:, 2], cells[:, 1], cells[:, 0]))
+        first = np.ones(len(order), dtype=bool)
+        first[1:] = np.any(np.diff(cells[order], axis=0) != 0, axis=1)
+        keep = np.sort(order[first])
+        self.points, self.keys, self.waiting = points[keep], keys[keep], []
+
+    def result(self) -> np.ndarray:
+        """The thinned points so far (M, 3) [m]."""
+        self._compact()
+        return self.points.copy()
+
+
+def voxel_means(points, voxel: float) -> np.ndarray:
+    """(M, 3) mean [m] of the points (N, 3) [m] in each occupied ``voxel`` [m] cube of the grid
+    with a corner at the world origin: the repeated-scanning map's own voxelisation
+    (:func:`mitsonar.recon.voxelmap.voxelise`, no outlier removal), so a voxel map of that size
+    comes out unchanged."""
+    check_positive("voxel [m]", voxel)
+    p = np.asarray(points, dtype=float).reshape(-1, 3)
+    if not len(p):
+        return np.zeros((0, 3))
+    settings = VoxelMapSettings(voxel_size=voxel, outlier_neighbours=0)
+    return voxelise(p, np.full(p.shape, np.nan), settings).positions
