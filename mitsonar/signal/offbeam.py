@@ -53,21 +53,20 @@ class Recovered:
     centre: np.ndarray
 
 
-def recover(processor, envelopes, accepted, threshold, u, looks, found) -> Recovered:
+def recover(processor, envelopes, allowed, threshold, u, looks, found) -> Recovered:
     """Off-beam echoes (module docstring, steps 1-3) of the B beams not in ``found`` (their
     indices: the beams with an accepted echo).
 
     Args:
         processor: the :class:`~mitsonar.signal.receiver.EchoProcessor`.
         envelopes: (B, N) the beams' envelopes [Pa].
-        accepted: (B, N) where a candidate may be (over the threshold, in the window, parts
-            balanced).
+        allowed: (B, N) where an echo may be (in the listening window, parts balanced).
         threshold: (B, N) the level an echo must exceed [Pa].
         u: (B, 3) beam directions.
         looks: the beams' looks (receiver ``_Looks``: channels, waveforms).
     """
     beamformer = processor.beamformer
-    beams, samples, _ = candidates(envelopes, accepted, 1)
+    beams, samples, _ = candidates(envelopes, allowed & (envelopes > threshold), 1)
     lost = ~np.isin(beams, found)
     beams, samples = beams[lost], samples[lost]
     grid = beamformer.ghost_grid
@@ -76,7 +75,7 @@ def recover(processor, envelopes, accepted, threshold, u, looks, found) -> Recov
     g = processor.geometry
     keep = in_fov(centre, g.fov_horizontal, g.fov_vertical)
     beams, samples, centre = beams[keep], samples[keep], centre[keep]
-    samples, loud = steered_peaks(processor, looks, threshold, beams, samples, centre)
+    samples, loud = steered_peaks(processor, looks, threshold, allowed, beams, samples, centre)
     beams, samples, centre = beams[loud], samples[loud], centre[loud]
     passed = processor._pass_side_lobe_check(looks, centre, beams, samples,
                                              np.arange(len(beams)))
@@ -103,11 +102,11 @@ def grid_power(beamformer, looks, beams, samples) -> np.ndarray:
     return power
 
 
-def steered_peaks(processor, looks, threshold, beams, samples, centre):
+def steered_peaks(processor, looks, threshold, allowed, beams, samples, centre):
     """(samples (E,), loud (E,)): each candidate's instant re-read on its beam's envelope
     steered to ``centre`` (E, 3): the strongest sample within the waveform's range resolution
-    of ``samples``; ``loud`` where that is over ``threshold`` (B, N) and not on the edge of the
-    span searched (a peak of its own)."""
+    of ``samples``; ``loud`` where that is over ``threshold`` (B, N), ``allowed`` (B, N) and not
+    on the edge of the span searched (a peak of its own)."""
     if not len(beams):
         return samples, np.zeros(0, bool)
     waves = looks.waves
@@ -125,7 +124,7 @@ def steered_peaks(processor, looks, threshold, beams, samples, centre):
     best = np.argmax(values, axis=1)
     new = samples + offsets[best]
     edge = np.abs(offsets[best]) == reach
-    loud = ~edge & (steered[rows[:, 0], new] > threshold[beams, new])
+    loud = ~edge & (steered[rows[:, 0], new] > threshold[beams, new]) & allowed[beams, new]
     return new, loud
 
 

@@ -295,8 +295,8 @@ class EchoProcessor:
                                                     looks)
             cells = (np.zeros(0, np.int64),) * 2
             if s.off_beam and looks is not None:
-                moved = offbeam.recover(self, envelopes, window & loud & balanced, threshold, u,
-                                        looks, beams)
+                moved = offbeam.recover(self, envelopes, window & balanced, threshold, u, looks,
+                                        beams)
         else:
             crosstalk = self._crosstalk(u, waves, transmit) if shared else None
             beams, samples, cells = self._every_echo(envelopes, loud, window, balanced, u, waves,

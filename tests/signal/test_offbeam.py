@@ -71,7 +71,7 @@ def test_point_reflectors_outside_the_main_lobe_are_placed_on_them_or_dropped(sc
     reaches the beams pointing near it through their side lobes, and one 1.2 m away 40 deg to the
     other side, outside the 60 deg field of view. Seeds 1-3, eight beams: without off_beam only
     the beam on the first sphere detects; with it, every re-placed point lies within 2 cm of
-    that sphere's surface (measured: 3-15 mm, two beams, 8 and 12 deg off it), the sphere's own
+    that sphere's surface (measured: 3-15 mm, the beams at 8 and 12 deg), the sphere's own
     beam keeps its ordinary point, and the sphere outside the field of view gets none."""
     near = 1.5 * direction_from_fov_angles(np.radians(20.0), 0.0)
     outside = 1.2 * direction_from_fov_angles(np.radians(-40.0), 0.0)
