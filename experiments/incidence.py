@@ -68,9 +68,11 @@ SCENES = Path(__file__).resolve().parents[1] / "scenes"
 SCENE_NAMES = ("room_glass", "structure", "office", "workshop")
 #: The presets compared, then two variants of the default that test why it loses walls (run
 #: when named in --presets): broadband (20 kHz) transducers instead of the TCT40's 2 kHz, and
-#: the receiver's side-lobe check off (``DetectionSettings.ghost_margin = 0``).
+#: the receiver's side-lobe check off (``DetectionSettings.ghost_margin = 0``); and one that
+#: recovers what that check rejects: off-beam echoes re-placed where they arrive from
+#: (``DetectionSettings.off_beam``).
 PRESETS = ("default", "paper")
-VARIANTS = ("default_broadband", "default_no_sidelobe_check")
+VARIANTS = ("default_broadband", "default_no_sidelobe_check", "default_off_beam")
 #: The broadband variant's -6 dB transducer bandwidth [Hz].
 BROADBAND = 20e3
 #: Grid step [rad] and half span [rad] (in field-of-view angles around each beam) on which the
@@ -187,9 +189,11 @@ def sonar_config(name: str) -> mitsonar.SonarConfig:
     """The configuration of a preset or variant (:data:`PRESETS`, :data:`VARIANTS`)."""
     if name == "default_broadband":
         return mitsonar.SonarConfig(transducer=mitsonar.Transducer(bandwidth_6db=BROADBAND))
-    if name == "default_no_sidelobe_check":
+    if name in ("default_no_sidelobe_check", "default_off_beam"):
         config = mitsonar.SonarConfig()
-        return replace(config, detection=replace(config.detection, ghost_margin=0.0))
+        change = dict(ghost_margin=0.0) if name == "default_no_sidelobe_check" \
+            else dict(off_beam=True)
+        return replace(config, detection=replace(config.detection, **change))
     return mitsonar.SonarConfig.preset(name)
 
 

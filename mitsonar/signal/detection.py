@@ -63,6 +63,11 @@ class DetectionSettings:
             broadside [rad] (sin(image_step) in direction cosines).
         image_half_angle: "image": half-angle of the cone imaged around each beam's axis [rad]
             (default 3 deg: the steered transmit beam's -6 dB half-width at 40 kHz is 3.1 deg).
+        off_beam: "first": a beam whose every candidate fails the side-lobe check gets its
+            strongest one re-placed where it arrives from, when that is outside the beam's main
+            lobe, inside the field of view and trusted (``min_coherence``), flagged in
+            :class:`Echoes` (e.g. a smooth wall's specular echo from the foot of the
+            perpendicular; :mod:`mitsonar.signal.offbeam`). Off by default.
     """
 
     detection_snr: float = 5.0
@@ -81,6 +86,7 @@ class DetectionSettings:
     min_coherence: float = 0.6
     image_step: float = np.radians(2.0)
     image_half_angle: float = np.radians(3.0)
+    off_beam: bool = False
 
     def __post_init__(self):
         if self.echoes not in ECHO_MODES:
@@ -89,6 +95,10 @@ class DetectionSettings:
         if self.echoes == "cells" and not self.arrival_step > 0:
             raise ValueError("DetectionSettings.echoes = 'cells' needs arrival directions "
                              "(arrival_step [rad] > 0)")
+        if self.off_beam and not (self.echoes == "first" and self.ghost_margin > 0
+                                  and self.arrival_step > 0):
+            raise ValueError("DetectionSettings.off_beam needs echoes = 'first', the side-lobe "
+                             "check (ghost_margin > 0) and arrival directions (arrival_step > 0)")
         if not 0 <= self.min_coherence <= 1:
             raise ValueError(f"DetectionSettings.min_coherence must be in [0, 1], "
                              f"got {self.min_coherence}")
@@ -161,6 +171,10 @@ class Echoes:
         coherence: (E,) fraction of the receive channels' power at that instant explained by one
             plane wave from ``direction``, summed over the looks (1: a single arrival; about
             1 / N_rx for noise; NaN without an arrival-direction estimate).
+        off_beam: (E,) True for an echo that failed its beam's side-lobe check and was re-placed
+            where it arrives from (:attr:`DetectionSettings.off_beam`; its amplitude and SNR are
+            those along the beam, its time read at the sample where the envelope steered there
+            peaks).
     """
 
     beam: np.ndarray
@@ -174,6 +188,7 @@ class Echoes:
     point: np.ndarray
     direction: np.ndarray
     coherence: np.ndarray
+    off_beam: np.ndarray
 
     def __len__(self) -> int:
         return len(self.beam)

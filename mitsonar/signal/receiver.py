@@ -64,6 +64,8 @@ Order and choices:
 * Receive images over each beam's lit cone (``echoes`` = "image", :mod:`mitsonar.signal.cone`):
   echoes and range cells chosen on where each beam's cone image peaks, checked and placed at
   that direction; reported as "cells" are.
+* Off-beam echoes (``off_beam``, "first"): a beam's echo rejected by the side-lobe check is
+  re-placed where it arrives from, flagged (:mod:`mitsonar.signal.offbeam`).
 """
 
 from __future__ import annotations
@@ -75,7 +77,7 @@ import numpy as np
 from mitsonar.physics.array import ArrayGeometry
 from mitsonar.signal.band import Band, Recording
 from mitsonar.signal.beamforming import Beamformer, dot
-from mitsonar.signal import cone, multiecho
+from mitsonar.signal import cone, multiecho, offbeam
 from mitsonar.signal.detection import (Detection, Detections, DetectionSettings, Echoes,
                                        bistatic_depth, bistatic_point, candidates,
                                        local_maxima, vertex)
@@ -281,7 +283,7 @@ class EchoProcessor:
         if not np.all(np.any(window, axis=1)):
             raise ValueError("the recording ends before the minimum range")
         loud = envelopes > threshold
-        apparent = None
+        apparent = moved = None
         if s.echoes == "image":
             if image is None or looks is None:
                 raise ValueError("DetectionSettings.echoes = 'image' needs the channels")
@@ -292,12 +294,15 @@ class EchoProcessor:
             beams, samples = self._strongest_echoes(envelopes, window & loud & balanced, u,
                                                     looks)
             cells = (np.zeros(0, np.int64),) * 2
+            if s.off_beam and looks is not None:
+                moved = offbeam.recover(self, envelopes, window & balanced, threshold, u, looks,
+                                        beams)
         else:
             crosstalk = self._crosstalk(u, waves, transmit) if shared else None
             beams, samples, cells = self._every_echo(envelopes, loud, window, balanced, u, waves,
                                                      looks, crosstalk)
         return self._report(envelopes, threshold, window, start_time, transmit, u, waves, looks,
-                            beams, samples, cells, apparent)
+                            beams, samples, cells, apparent, moved)
 
     def _strongest_echoes(self, envelopes, accepted, u, looks):
         """(beams, samples) of each beam's strongest candidate that arrives along it, by beam
@@ -397,19 +402,18 @@ class EchoProcessor:
         return beams[passed], samples[passed]
 
     def _report(self, envelopes, threshold, window, start_time, transmit, u, waves, looks,
-                beams, samples, cells, apparent=None) -> Detections:
+                beams, samples, cells, apparent=None, moved=None) -> Detections:
         """:class:`Detections` and :class:`Echoes` of B beams from their echoes (beams,
         samples), by beam and then by decreasing amplitude, and their range cells (beams,
         samples): each placed (time of arrival, arrival direction, bistatic depth (7)); with
         ``echoes`` = "all", "cells" or "image", kept where their direction is trustworthy
         (``min_coherence``). ``apparent`` (E, 2): "image"'s directions, echoes then cells
-        (:func:`~mitsonar.signal.cone.place`)."""
+        (:func:`~mitsonar.signal.cone.place`); ``moved``: off-beam echoes (:mod:`.offbeam`)."""
         s, g = self.settings, self.geometry
         fs = self.band.sample_rate
         count = len(envelopes)
-        peak = np.concatenate([np.ones(len(beams), bool), np.zeros(len(cells[0]), bool)])
-        beams, k = np.concatenate([beams, cells[0]]), np.concatenate([samples, cells[1]])
-        refined = np.where(peak, vertex(envelopes[beams, k - 1], envelopes[beams, k],
+        beams, k, peak, centre, off_beam = offbeam.rows(beams, samples, cells, u, moved)
+        refined = np.where(peak & ~off_beam, vertex(envelopes[beams, k - 1], envelopes[beams, k],
                                         envelopes[beams, k + 1]), 0.0)
         sample = k + refined
         toa = start_time - transmit[beams] + sample / fs
@@ -420,7 +424,7 @@ class EchoProcessor:
             sets = looks.sets(beams[row], look)
             carriers = waves.carriers[waves.looks[beams[row], look]]
             arrival = self.beamformer.arrival_directions(
-                looks.channels, sets, carriers, row, sample, u[beams]) if apparent is None \
+                looks.channels, sets, carriers, row, sample, centre) if apparent is None \
                 else cone.unit_direction(apparent)  # where the plane-wave beams peak
             coherence = self.beamformer.coherence(looks.channels, sets, carriers, row, sample,
                                                   arrival)
@@ -439,15 +443,16 @@ class EchoProcessor:
             point = bistatic_depth(l, g.baseline, cos_b[beams])[:, None] * arrival
         # The single-detection path trusts every direction; the others those that one plane wave
         # explains, and echoes without a measured direction (on the beam axis, as the paper).
-        trusted = (s.echoes == "first") | (coherence >= s.min_coherence) \
-            | (peak & np.isnan(coherence))
+        trusted = np.where(off_beam, offbeam.trusted(coherence, arrival, g, s),
+                           (s.echoes == "first") | (coherence >= s.min_coherence)
+                           | (peak & np.isnan(coherence)))
         noise = waves.noise[waves.kind[beams]]
         with np.errstate(divide="ignore"):  # no receiver noise: infinite SNR
             snr = envelopes[beams, k] / noise
         table = Echoes(beam=beams, rank=np.zeros(len(beams), np.int64), peak=peak,
                        amplitude=envelopes[beams, k], snr=snr, time_of_arrival=toa,
                        path_length=l, depth=np.linalg.norm(point, axis=-1), point=point,
-                       direction=arrival, coherence=coherence)
+                       direction=arrival, coherence=coherence, off_beam=off_beam)
         rows = np.flatnonzero(trusted)
         rows = rows[np.lexsort((-table.amplitude[rows], ~peak[rows], beams[rows]))]
         table, k = table.take(rows), k[rows]

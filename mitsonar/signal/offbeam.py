@@ -1,0 +1,154 @@
+"""Off-beam echoes re-placed where they arrive from (``DetectionSettings.off_beam``).
+
+A smooth wall seen a few degrees off its normal (about 3 to 18 deg with the TCT40 transducers,
+docs/incidence.md) returns its specular echo from the foot of the perpendicular, at the
+perpendicular range, whichever way the beam points. It reaches the beam through the transmit
+side lobe, merged with the weak diffuse echo of the footprint, and the side-lobe check rightly
+rejects it *for that beam's direction*: placed on the beam it would be wrong. The receive array
+still measures where it came from. With ``off_beam``, the strongest candidate of a beam whose
+every candidate failed (``echoes`` = "first") is examined again where it arrives from:
+
+1. the direction of the side-lobe check's grid (``ghost_grid_step``, +-``ghost_half_span``)
+   where the narrow-band delay-and-sum power at its instant, summed over the looks, is largest
+   (outside the beam's main lobe, or inside it but off its axis: a wall 4 deg off its normal
+   peaks 4 deg off the beam, and the check failed because its axis is weaker than a side lobe
+   of that arrival), kept inside the field of view;
+2. its instant re-read on the envelope steered there (the strongest sample within one range
+   resolution tau_r of the candidate, not on the window's edge, over the threshold): along the
+   mirror direction the specular echo dominates, and the diffuse echo of the footprint, which
+   arrives later, no longer pulls the peak;
+3. the side-lobe check again, now for that direction;
+4. then, as every echo: the arrival direction refined within ``ghost_exclusion`` of that
+   direction, kept where one plane wave from it explains ``min_coherence`` of the channels'
+   power and it lies in the field of view, placed by the bistatic depth (7) along it
+   (:meth:`EchoProcessor._report <mitsonar.signal.receiver.EchoProcessor._report>`).
+
+Such an echo is the beam's point (its :class:`~mitsonar.signal.detection.Detections` entry),
+flagged ``off_beam`` in :class:`~mitsonar.signal.detection.Echoes`: a map may keep or drop it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from mitsonar.physics.array import ArrayGeometry
+from mitsonar.physics.beampattern import in_fov
+from mitsonar.signal.detection import DetectionSettings, candidates
+
+
+@dataclass(frozen=True)
+class Recovered:
+    """Off-beam echoes of beams without an accepted echo (R rows).
+
+    Attributes:
+        beam: (R,) the beam of each.
+        sample: (R,) its sample on the envelope steered to ``centre``.
+        centre: (R, 3) unit direction where its power peaks on the side-lobe check's grid.
+    """
+
+    beam: np.ndarray
+    sample: np.ndarray
+    centre: np.ndarray
+
+
+def recover(processor, envelopes, allowed, threshold, u, looks, found) -> Recovered:
+    """Off-beam echoes (module docstring, steps 1-3) of the B beams not in ``found`` (their
+    indices: the beams with an accepted echo).
+
+    Args:
+        processor: the :class:`~mitsonar.signal.receiver.EchoProcessor`.
+        envelopes: (B, N) the beams' envelopes [Pa].
+        allowed: (B, N) where an echo may be (in the listening window, parts balanced).
+        threshold: (B, N) the level an echo must exceed [Pa].
+        u: (B, 3) beam directions.
+        looks: the beams' looks (receiver ``_Looks``: channels, waveforms).
+    """
+    beamformer = processor.beamformer
+    beams, samples, _ = candidates(envelopes, allowed & (envelopes > threshold), 1)
+    lost = ~np.isin(beams, found)
+    beams, samples = beams[lost], samples[lost]
+    grid = beamformer.ghost_grid
+    power = grid_power(beamformer, looks, beams, samples)
+    centre = grid[np.argmax(power, axis=1)]
+    g = processor.geometry
+    keep = in_fov(centre, g.fov_horizontal, g.fov_vertical)
+    beams, samples, centre = beams[keep], samples[keep], centre[keep]
+    samples, loud = steered_peaks(processor, looks, threshold, allowed, beams, samples, centre)
+    beams, samples, centre = beams[loud], samples[loud], centre[loud]
+    passed = processor._pass_side_lobe_check(looks, centre, beams, samples,
+                                             np.arange(len(beams)))
+    return Recovered(beams[passed], samples[passed], centre[passed])
+
+
+def grid_power(beamformer, looks, beams, samples) -> np.ndarray:
+    """(E, G) narrow-band delay-and-sum power of candidates (``beams``, integer ``samples``)
+    towards the side-lobe check's G directions, summed over each beam's looks: a sparse product
+    per look and carrier."""
+    grid, table = beamformer.ghost_grid, looks.waves.looks
+    power = np.zeros((len(beams), len(grid)))
+    for look in range(table.shape[1]):  # a code's parts (two at most), not beams
+        rows = np.flatnonzero(table[beams, look] >= 0)
+        if not len(rows):
+            continue
+        sets = looks.sets(beams[rows], look)
+        carriers = looks.waves.carriers[table[beams[rows], look]]
+        windows = beamformer.windows(looks.channels, sets, samples[rows])
+        for carrier in np.unique(carriers):
+            mine = carriers == carrier
+            beams_out = beamformer.operator(grid, carrier) @ windows[:, mine]
+            power[rows[mine]] += np.abs(beams_out.T) ** 2
+    return power
+
+
+def steered_peaks(processor, looks, threshold, allowed, beams, samples, centre):
+    """(samples (E,), loud (E,)): each candidate's instant re-read on its beam's envelope
+    steered to ``centre`` (E, 3): the strongest sample within the waveform's range resolution
+    of ``samples``; ``loud`` where that is over ``threshold`` (B, N), ``allowed`` (B, N) and not
+    on the edge of the span searched (a peak of its own)."""
+    if not len(beams):
+        return samples, np.zeros(0, bool)
+    waves = looks.waves
+    kind = waves.kind[beams]
+    spectra = looks.spectra[beams] if looks.per_beam else looks.spectra[0]
+    n = threshold.shape[1]
+    steered = processor._envelopes(processor.beamformer.beamformed(spectra, centre),
+                                   waves.filters[kind], n)
+    reach = np.ceil(waves.range_profiles(processor)[1][kind]).astype(np.int64)  # tau_r
+    offsets = np.arange(-reach.max(), reach.max() + 1)
+    span = samples[:, None] + offsets
+    inside = (np.abs(offsets) <= reach[:, None]) & (span >= 0) & (span < n)
+    rows = np.arange(len(beams))[:, None]
+    values = np.where(inside, steered[rows, np.clip(span, 0, n - 1)], -np.inf)
+    best = np.argmax(values, axis=1)
+    new = samples + offsets[best]
+    edge = np.abs(offsets[best]) == reach
+    loud = ~edge & (steered[rows[:, 0], new] > threshold[beams, new]) & allowed[beams, new]
+    return new, loud
+
+
+def trusted(coherence, arrival, geometry: ArrayGeometry,
+            settings: DetectionSettings) -> np.ndarray:
+    """(E,) where re-placed echoes are kept: one plane wave from their refined ``arrival``
+    (E, 3) explains ``min_coherence`` of the channels' power (``coherence`` (E,)) and it lies
+    in the field of view."""
+    return (coherence >= settings.min_coherence) \
+        & in_fov(arrival, geometry.fov_horizontal, geometry.fov_vertical)
+
+
+def rows(beams, samples, cells, u, recovered: Recovered | None):
+    """The rows of a report: echoes (``beams``, ``samples``), then the off-beam echoes
+    ``recovered`` (or none), then the range cells (beams, samples). Returns beams (E,), samples
+    (E,), peak (E,) (False for a cell), centre (E, 3) (where each row's arrival direction is
+    sought: its beam, or the off-beam echo's direction) and off_beam (E,)."""
+    extra = recovered or Recovered(np.zeros(0, np.int64), np.zeros(0, np.int64),
+                                   np.zeros((0, 3)))
+    counts = (len(beams), len(extra.beam), len(cells[0]))
+    beams = np.concatenate([beams, extra.beam, cells[0]])
+    samples = np.concatenate([samples, extra.sample, cells[1]])
+    peak = np.repeat([True, True, False], counts)
+    off_beam = np.repeat([False, True, False], counts)
+    centre = u[beams]
+    centre[off_beam] = extra.centre
+    return beams, samples, peak, centre, off_beam
