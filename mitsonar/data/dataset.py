@@ -71,7 +71,7 @@ class DatasetSpec:
         odometry: odometry drift model.
         sonar_preset: 'default' or 'paper'.
         echoes: which echoes of each beam ``echoes.npz`` records in its echo table, with their
-            attributes (``DetectionSettings.echoes``: 'first', 'all' or 'cells').
+            attributes (``DetectionSettings.echoes``: 'first', 'all', 'cells' or 'image').
     """
 
     scene: str

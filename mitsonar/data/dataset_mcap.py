@@ -32,12 +32,21 @@ def _pose(matrix) -> Pose:
 
 
 def echo_table(arrays: dict, source: str) -> Echoes:
-    """The echo table of a sample's ``echoes.npz`` arrays (its ``echo_`` columns);
-    :class:`~mitsonar.data.dataset.DatasetError` naming ``source`` if it has none."""
+    """The echo table of a sample's ``echoes.npz`` arrays (its ``echo_`` columns; datasets
+    rendered before the ``off_beam`` column read as having no re-placed echo);
+    :class:`~mitsonar.data.dataset.DatasetError` naming ``source`` if it has none or lacks
+    another column."""
     if "echo_beam" not in arrays:
         raise DatasetError(f"{source}: no echo table (rendered before datasets recorded every "
                            f"echo); render the dataset again")
-    return Echoes(**{f.name: arrays["echo_" + f.name] for f in fields(Echoes)})
+    columns = {f.name: arrays.get("echo_" + f.name) for f in fields(Echoes)}
+    if columns["off_beam"] is None:  # rendered before off-beam re-placement existed: none was
+        columns["off_beam"] = np.zeros(len(columns["beam"]), dtype=bool)
+    missing = [name for name, column in columns.items() if column is None]
+    if missing:
+        raise DatasetError(f"{source}: echo table lacks {', '.join(missing)}; render the dataset "
+                           f"again")
+    return Echoes(**columns)
 
 
 def export_dataset(path, out, progress=None) -> dict:

@@ -4,6 +4,7 @@ import hashlib
 import json
 import re
 import shutil
+from pathlib import Path
 
 import cv2
 import numpy as np
@@ -11,7 +12,7 @@ import pytest
 
 from mitsonar.cli import main
 from mitsonar.data.dataset import DatasetSpec, open_dataset, render_dataset
-from mitsonar.data.dataset_mcap import export_dataset
+from mitsonar.data.dataset_mcap import echo_table, export_dataset
 from mitsonar.data.mcap_recorder import PULSE_CODE, TOPICS
 from mitsonar.data.ros_messages import cloud_columns, echo_samples
 from mitsonar.frames import Pose
@@ -139,25 +140,42 @@ def test_truncated_dataset_is_named_and_writes_nothing(dataset, tmp_path, capsys
     assert "dataset.json" in capsys.readouterr().err and not out.exists()
 
 
-def test_sample_without_echo_table_is_named_and_writes_nothing(dataset, tmp_path, capsys):
-    """A sample rendered before datasets kept every echo (no ``echo_`` arrays, manifest intact)
-    stops the export with one line naming its file."""
+def _older_copy(dataset, tmp_path, dropped) -> Path:
+    """A copy of ``dataset`` whose first sample's echoes.npz lacks the arrays ``dropped(name)``
+    selects, as an older mitsonar wrote it (manifest intact)."""
     copy = tmp_path / "copy"
     shutil.copytree(dataset, copy)
     folder = copy / "samples" / "000000"
     with np.load(folder / "echoes.npz") as data:
-        old = {k: data[k] for k in data.files if not k.startswith("echo_")}
+        old = {k: data[k] for k in data.files if not dropped(k)}
     with open(folder / "echoes.npz", "wb") as f:
         np.savez_compressed(f, **old)
     manifest = json.loads((folder / "manifest.json").read_text())
     blob = (folder / "echoes.npz").read_bytes()
     manifest["echoes.npz"] = {"bytes": len(blob), "sha256": hashlib.sha256(blob).hexdigest()}
     (folder / "manifest.json").write_text(json.dumps(manifest))
+    return copy
+
+
+def test_sample_without_echo_table_is_named_and_writes_nothing(dataset, tmp_path, capsys):
+    """A sample rendered before datasets kept every echo (no ``echo_`` arrays, manifest intact)
+    stops the export with one line naming its file."""
+    copy = _older_copy(dataset, tmp_path, lambda name: name.startswith("echo_"))
     out = tmp_path / "out" / "dataset.mcap"
     assert main(["dataset", "export", str(copy), "--out", str(out)]) == 2
     err = [line for line in capsys.readouterr().err.splitlines() if "error" in line]
     assert len(err) == 1 and "000000/echoes.npz: no echo table" in err[0]
     assert not out.exists()
+
+
+def test_sample_without_off_beam_column_reads_as_no_replaced_echo(dataset, tmp_path):
+    """A sample rendered before the echo table's ``off_beam`` column exports; its echoes read as
+    none re-placed (that mitsonar never re-placed one)."""
+    copy = _older_copy(dataset, tmp_path, lambda name: name == "echo_off_beam")
+    table = echo_table(open_dataset(copy)[0].echoes, "000000")
+    assert len(table.beam) > 0 and not table.off_beam.any()
+    out = tmp_path / "out" / "dataset.mcap"
+    assert main(["dataset", "export", str(copy), "--out", str(out)]) == 0 and out.exists()
 
 
 def test_foxglove_layout_shows_recorded_topics_and_frames():
