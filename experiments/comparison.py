@@ -142,8 +142,8 @@ class Reconstruction:
 
 def sonar_run(scene, mode: str, preset: str, trajectory, settings: RunSettings, checkpoints,
               progress):
-    """Drive the sonar: (loaded scene, thinned cloud at each checkpoint time [s] (the last the
-    whole drive), raw points, frames, diagnosis)."""
+    """Drive the sonar: (thinned cloud at each checkpoint time [s] (the last the whole drive),
+    raw points, frames, diagnosis)."""
     config = mitsonar.SonarConfig.preset(preset)
     if mode == "surfel":
         sonar = mitsonar.Sonar(scene, config)
@@ -156,7 +156,7 @@ def sonar_run(scene, mode: str, preset: str, trajectory, settings: RunSettings, 
         rejected = ", ".join(f"{v} {k.replace('_', ' ')}" for k, v in final.rejected.items())
         diagnosis = (f"{len(final.surfel_pose)} surfels registered ({rejected}), "
                      f"{len(final.groups)} planes")
-        return sonar.scene, clouds, len(clouds[-1]), len(final.scans), diagnosis
+        return clouds, len(clouds[-1]), len(final.scans), diagnosis
     broadband = replace(config, transducer=mitsonar.Transducer(bandwidth_6db=20e3))
     sonar = mitsonar.Sonar(scene, broadband)
     spec = RepeatedMapSpec(duration=settings.duration, scan_step=settings.step, echoes="all",
@@ -169,7 +169,7 @@ def sonar_run(scene, mode: str, preset: str, trajectory, settings: RunSettings, 
     echoes = sum(len(s.frame.echo_table.point) for s in scanned)
     diagnosis = (f"{100 * detected:.0f} % of beams detect, {echoes / len(scanned):.0f} echoes "
                  f"a frame -> {len(clouds[-1])} voxels")
-    return sonar.scene, clouds, echoes, len(scanned), diagnosis
+    return clouds, echoes, len(scanned), diagnosis
 
 
 def baseline_run(key: str, scene, trajectory, settings: RunSettings, checkpoints, label: str):
@@ -218,7 +218,7 @@ def run_scene(name: str, path: Path, modes, settings: RunSettings) -> tuple[list
                        else min(settings.duration, trajectory.duration))
     driven = trajectory.driven(settings.duration)
     checkpoints = driven * np.arange(1, settings.checkpoints + 1) / settings.checkpoints
-    scene = mitsonar.Sonar(path, mitsonar.SonarConfig.preset(settings.presets[0])).scene
+    scene = mitsonar.load_scene(path)
     mesh = scene_mesh(scene)
     samples = sample_surface(mesh, settings.spacing, settings.seed)
     views = trajectory.poses_at(np.arange(0.0, driven + 1e-9, VIEW_PERIOD))
@@ -234,8 +234,8 @@ def run_scene(name: str, path: Path, modes, settings: RunSettings) -> tuple[list
                     bar.total = round(driven, 1) if mode == "surfel" else at[1]
                     bar.update((round(at[0], 1) - bar.n) if mode == "surfel" else 1)
 
-                _, clouds, raw, frames, diagnosis = sonar_run(scene, mode, preset, trajectory,
-                                                              settings, checkpoints, step)
+                clouds, raw, frames, diagnosis = sonar_run(scene, mode, preset, trajectory,
+                                                           settings, checkpoints, step)
             recs.append(score("sonar", mode, preset, clouds, raw, frames,
                               time.perf_counter() - start, truth, diagnosis))
     for key in settings.baselines:

@@ -63,6 +63,7 @@ import numpy as np
 
 import mitsonar
 from mitsonar.evaluation.metrics import evaluate, sample_surface, visible_from
+from mitsonar.evaluation.thinning import VoxelThinner
 from mitsonar.io import write_table
 from mitsonar.plots import _pyplot, save_png
 from mitsonar.scene.mesh import scene_mesh
@@ -74,7 +75,7 @@ from mitsonar.signal.receiver import EchoProcessor
 
 if str(Path(__file__).resolve().parent) not in sys.path:  # the comparison's definitions
     sys.path.append(str(Path(__file__).resolve().parent))
-from comparison import THIN_VOXEL, VIEW_PERIOD, VoxelThinner  # noqa: E402
+from comparison import THIN_VOXEL, VIEW_PERIOD  # noqa: E402
 
 SCENES = Path(__file__).resolve().parents[1] / "scenes"
 SCENE_NAMES = ("office", "workshop")

@@ -134,7 +134,8 @@ def add_echoes_argument(parser, default: str, what: str) -> None:
     (``DetectionSettings.echoes``)."""
     parser.add_argument("--echoes", choices=ECHO_MODES, default=default,
                         help=f"echoes of each beam {what}: the strongest ('first'), every echo "
-                             f"('all') or every range cell across extended echoes too ('cells') "
+                             f"('all'), every range cell across extended echoes too ('cells') or "
+                             f"a range cell at the peak of each beam's cone image ('image') "
                              f"(default {default})")
 
 

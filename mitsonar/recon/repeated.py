@@ -12,7 +12,8 @@ measures it).
 Echoes. Every echo each beam reports is a point (``echoes``, ``DetectionSettings.echoes``):
 "first" (default) the strongest of each beam, one point per beam as the paper; "all" every echo
 over the range profile, each at the arrival direction the receive array measures for it;
-"cells" those and every range cell across extended echoes. ``experiments/imaging.py`` compares
+"cells" those and every range cell across extended echoes; "image" a point per range cell at the
+peak of each beam's cone image (fewer than "cells"). ``experiments/imaging.py`` compares
 them (docs/imaging.md): with the ``paper`` preset "all" and "cells" give ~2x the points at the
 same accuracy; with broadband transducers on a rough wall the direction-trust test drops
 speckle echoes that the first-echo path keeps (tests/recon/test_voxelmap.py), so the default
@@ -58,7 +59,7 @@ class RepeatedMapSpec:
         registration: "beam" (each beam's pose at firing) or "frame" (one odometry pose per
             frame, as the paper).
         echoes: the echoes of each beam that become points (``DetectionSettings.echoes``:
-            "first", "all" or "cells"; module docstring); it replaces the sonar's own setting.
+            "first", "all", "cells" or "image"; module docstring); it replaces the sonar's own setting.
         seed: seeds every frame's noise and diffuse phases.
     """
 

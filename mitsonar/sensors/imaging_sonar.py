@@ -154,10 +154,10 @@ class ImagingSonar:
         centre = np.abs(weights) @ g.tx_positions / np.sum(np.abs(weights))
         self.imager = ReceiveImager(g, sonar.band, cfg.medium.speed_of_sound, cfg.detection,
                                     cfg.noise_rms, centre, transmit.cone_half_angle, settings)
-        self._direct = self.tracer.direct_paths(BROADSIDE)
-        # The direct path is the same in every image: its image (blanking) once.
-        self.direct_image = self.imager.envelopes(
-            sonar.synthesizer.group_spectrum(self._direct, None, g.rx.count))
+        # The direct path is the same in every image: its spectrum and image (blanking) once.
+        self._direct_spectrum = sonar.synthesizer.group_spectrum(
+            self.tracer.direct_paths(BROADSIDE), None, g.rx.count)
+        self.direct_image = self.imager.envelopes(self._direct_spectrum)
 
     @property
     def cycle_time(self) -> float:
@@ -175,7 +175,7 @@ class ImagingSonar:
         sonar, cfg = self.sonar, self.sonar.config
         paths = self.tracer.trace(pose, BROADSIDE, seed=seed).paths
         n_rx = cfg.geometry.rx.count
-        spectrum = sonar.synthesizer.group_spectrum(self._direct, None, n_rx)
+        spectrum = self._direct_spectrum.copy()
         hits = max(1, PATH_BATCH // (paths.elements[0] * n_rx))
         for first in range(0, len(paths.tx_delay), hits):  # bounded batches of element pairs
             part = paths.select(slice(first, first + hits))

@@ -421,7 +421,8 @@ class EchoSynthesizer:
         the system response (:meth:`Band.system_response`) left out below the band's floor, as
         :meth:`Band.system_spectrum` leaves it. Kept per (waveforms, delays, frequencies): frames
         repeat their schedule."""
-        key = (tuple(waveforms), np.asarray(delays).tobytes(), len(frequencies))
+        key = (tuple(waveforms), np.asarray(delays).tobytes(),
+               np.asarray(frequencies, dtype=float).tobytes())
         if key not in self._drives:
             band = self.band
             spectra = []

@@ -117,7 +117,7 @@ def test_noise_alone_gives_the_design_false_alarm_rate():
     design = cone_receiver._cone.expected_false_alarms(eta, window, CONFIG.geometry.rx_positions)
     rate = counted[False] / len(directions)
     assert 0.5 * design <= rate <= 2 * design, (rate, design, counted)
-    assert counted[True] <= counted[False]
+    assert counted[True] == 0, counted  # the checks reject every noise blob
 
 
 def test_no_point_where_nothing_is_in_the_beam(scene_file):

@@ -19,6 +19,7 @@ from mitsonar.signal import multiecho
 from mitsonar.signal.multiecho import expected_false_alarms
 from mitsonar.sensors.sonar import PRE_ROLL
 from mitsonar.signal.band import Band, Recording
+from mitsonar.signal.detection import local_maxima
 from mitsonar.signal.ofdm import code_set
 from mitsonar.signal.receiver import EchoProcessor
 
@@ -300,9 +301,7 @@ def test_range_cells_cross_extended_echoes_not_the_ringing_of_point_echoes():
     envelopes = np.stack([lobes[np.abs(np.arange(n) - start)],
                           np.max(weight * lobes[lag], axis=1)]) + 1e-6
     above = envelopes > 1e-3
-    peaks = np.zeros(envelopes.shape, bool)
-    peaks[:, 1:-1] = (envelopes[:, 1:-1] >= envelopes[:, :-2]) \
-        & (envelopes[:, 1:-1] > envelopes[:, 2:])
+    peaks = local_maxima(envelopes)
     clutter, tau = multiecho.Clutter(lobes[None], np.zeros(2, np.int64)), np.full(2, resolution)
     echoes, resolved = multiecho.echo_peaks(envelopes, peaks & above, above, tau, clutter, 2.0)
     np.testing.assert_array_equal(echoes[0], [0, 1])
