@@ -111,12 +111,10 @@ class ConeImager:
         ``filters[b]`` (B, nb)."""
         steered = (spectra * beamformer.steering(directions)).astype(np.complex64)  # (B, N_rx, nb)
         formed = np.matmul(steered.transpose(2, 0, 1), self._offset_phases)  # (nb, B, G)
-        formed = (formed.transpose(1, 2, 0) * filters[:, None, :]).reshape(-1, formed.shape[0])
-        out = np.empty((len(formed), n), np.float32)
-        for first in range(0, len(formed), ROW_BATCH):  # bounded inverse FFTs
-            rows = slice(first, first + ROW_BATCH)
-            out[rows] = np.abs(self.band.to_analytic(formed[rows])[:, :n])
-        return out.reshape(len(directions), len(self.offsets), n)
+        bins, count, grid = formed.shape
+        image = self.band.envelopes(formed.transpose(1, 2, 0).reshape(count * grid, bins),
+                                    np.repeat(filters, grid, axis=0), n, ROW_BATCH, np.float32)
+        return image.reshape(count, grid, n)
 
     def expected_false_alarms(self, detection_snr: float, duration: float,
                               rx_positions: np.ndarray, waveform=None) -> float:

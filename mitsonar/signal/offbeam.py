@@ -113,8 +113,8 @@ def steered_peaks(processor, looks, threshold, allowed, beams, samples, centre):
     kind = waves.kind[beams]
     spectra = looks.spectra[beams] if looks.per_beam else looks.spectra[0]
     n = threshold.shape[1]
-    steered = processor._envelopes(processor.beamformer.beamformed(spectra, centre),
-                                   waves.filters[kind], n)
+    steered = processor.band.envelopes(processor.beamformer.beamformed(spectra, centre),
+                                       waves.filters[kind], n)
     reach = np.ceil(waves.range_profiles(processor)[1][kind]).astype(np.int64)  # tau_r
     offsets = np.arange(-reach.max(), reach.max() + 1)
     span = samples[:, None] + offsets

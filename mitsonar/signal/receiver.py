@@ -137,17 +137,12 @@ class EchoProcessor:
         energy = self.matched_filter(waveform)[1]
         return 2.0 * self.noise_rms / np.sqrt(energy * self.geometry.rx.count)
 
-    def _envelopes(self, beamformed: np.ndarray, filters: np.ndarray, n: int) -> np.ndarray:
-        """Envelopes (R, n) [Pa] of beamformed spectra on the band (R, nb) matched-filtered by
-        ``filters`` (R, nb): one inverse FFT for all."""
-        return np.abs(self.band.to_analytic(beamformed * filters)[:, :n])
-
     def envelope(self, recording: Recording, direction, waveform=None) -> np.ndarray:
         """Envelope (N,) [Pa] of the beamformed, matched-filtered recording."""
         beamformed = self.beamformer.beamformed(self.band.band_spectra(recording.samples),
                                                 np.reshape(direction, (1, 3)))
-        return self._envelopes(beamformed, self.matched_filter(waveform)[0][None],
-                               recording.samples.shape[-1])[0]
+        return self.band.envelopes(beamformed, self.matched_filter(waveform)[0],
+                                   recording.samples.shape[-1])[0]
 
     def noiseless_envelopes(self, spectra: np.ndarray, directions, waveforms=None) -> np.ndarray:
         """Envelopes (B, n_samples) [Pa] of echoes given by their summed analytic spectra on the
@@ -157,8 +152,8 @@ class EchoProcessor:
         except that echoes are not cut at the recording's end."""
         u = np.reshape(directions, (-1, 3))
         waves = _Waveforms(self, waveforms, len(u))
-        return self._envelopes(self.beamformer.beamformed(spectra, u),
-                               waves.filters[waves.kind], self.band.n_samples)
+        return self.band.envelopes(self.beamformer.beamformed(spectra, u),
+                                   waves.filters[waves.kind])
 
     def noiseless_envelope(self, spectrum: np.ndarray, direction, waveform=None) -> np.ndarray:
         """:meth:`noiseless_envelopes` (n_samples,) of one beam, spectrum (N_rx, nb)."""
@@ -214,9 +209,10 @@ class EchoProcessor:
         beamformed = self.beamformer.beamformed(spectra, u)
         # Each part of a code is a tone: its own envelope, and an exact carrier for the looks.
         beams, look = np.nonzero((waves.looks >= 0) & waves.has_parts[:, None])
-        rows = self._envelopes(np.concatenate([beamformed, beamformed[beams]]),
-                               np.concatenate([waves.filters[waves.kind],
-                                               waves.look_filters[waves.looks[beams, look]]]), n)
+        rows = self.band.envelopes(np.concatenate([beamformed, beamformed[beams]]),
+                                   np.concatenate([waves.filters[waves.kind],
+                                                   waves.look_filters[waves.looks[beams, look]]]),
+                                   n)
         envelopes = rows[: len(u)]
         # Part envelopes (B, P, N) for the part balance; a beam without parts passes (inf >= 0).
         weakest = np.full(waves.looks.shape + (n,), np.inf)
