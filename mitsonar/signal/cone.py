@@ -138,12 +138,9 @@ def parts_balanced(beamformer: Beamformer, looks, beams: np.ndarray, samples: np
     waves = looks.waves
     table = waves.looks[beams]
     part = np.zeros(table.shape)
-    for look in range(table.shape[1]):  # a code's parts (two at most)
-        rows = np.flatnonzero(table[:, look] >= 0)
-        sets = looks.sets(beams[rows], look)
-        part[rows, look] = np.abs(beamformer.aligned(
-            looks.channels, sets, waves.carriers[table[rows, look]], samples[rows],
-            directions[rows]).sum(axis=1))
+    for look, rows, sets, carriers in looks.each(beams):  # a code's parts (two at most)
+        part[rows, look] = np.abs(beamformer.aligned(looks.channels, sets, carriers,
+                                                     samples[rows], directions[rows]).sum(axis=1))
     weakest = np.where(table >= 0, part, np.inf).min(axis=1)
     return ~waves.has_parts[beams] | (weakest >= part_balance * part.max(axis=1))
 
