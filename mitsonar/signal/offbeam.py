@@ -54,14 +54,12 @@ class Recovered:
     centre: np.ndarray
 
 
-def recover(processor, envelopes, allowed, threshold, u, looks, found,
-            strongest) -> Recovered:
+def recover(processor, allowed, threshold, u, looks, found, strongest) -> Recovered:
     """Off-beam echoes (module docstring, steps 1-3) of the B beams not in ``found`` (their
     indices: the beams with an accepted echo).
 
     Args:
         processor: the :class:`~mitsonar.signal.receiver.EchoProcessor`.
-        envelopes: (B, N) the beams' envelopes [Pa].
         allowed: (B, N) where an echo may be (in the listening window, parts balanced).
         threshold: (B, N) the level an echo must exceed [Pa].
         u: (B, 3) beam directions.

@@ -289,8 +289,8 @@ class EchoProcessor:
                 self.beamformer, looks, envelopes, window & loud & balanced, u)
             cells = (np.zeros(0, np.int64),) * 2
             if s.off_beam and looks is not None:
-                moved = offbeam.recover(self, envelopes, window & balanced, threshold, u, looks,
-                                        beams, strongest)
+                moved = offbeam.recover(self, window & balanced, threshold, u, looks, beams,
+                                        strongest)
         else:
             clutter, resolution = self._clutter(u, waves, transmit if shared else None)
             if s.echoes == "image":
