@@ -23,7 +23,11 @@ filter:
   times the range side lobes of stronger echoes and the other codes' cross-talk, range cells
   every ceil(tau_r) across extended echoes), where that value is a peak: none of its 8
   neighbours, those on the guard ring included, is larger (an echo from outside the cone, lit by
-  the transmit side lobes, rises towards the rim: no point).
+  the transmit side lobes, rises towards the rim: no point). Unlike "cells", the range cells are
+  grown from the echoes before the checks below, and each is then checked at its own direction:
+  a cell can stay in a run whose echo the side-lobe check rejects (117-beam scans of three
+  scenes, broadband and TCT40 transducers, and OFDM frames: 2 of about 450 reported rows,
+  cells 1.2 cm from the mesh, as close as the other cells).
 * Checks at the peak direction, with the receiver's looks (each part of a code matched-filtered
   and demodulated at its tone): every part of the code there with ``part_balance`` of the
   strongest; the side-lobe check towards the peak direction (no direction of the +-50 deg
@@ -265,8 +269,8 @@ def cone_echoes(imager: ConeImager, image: np.ndarray, threshold: np.ndarray, wi
     :func:`~mitsonar.signal.multiecho.echo_peaks`."""
     profile, best, inside = cone_peaks(imager, image)
     loud = profile > threshold
-    found, resolved = multiecho.echo_peaks(profile, local_maxima(profile) & loud, window & inside, resolution,
-                                           clutter, margin)
+    found, resolved = multiecho.echo_peaks(profile, local_maxima(profile) & loud,
+                                           window & inside, resolution, clutter, margin)
     cells = multiecho.range_cells(profile, window & loud, inside, resolved, found, resolution,
                                   clutter, margin)
     return profile, found, cells, best
