@@ -190,10 +190,9 @@ def sonar_config(name: str) -> mitsonar.SonarConfig:
     if name == "default_broadband":
         return mitsonar.SonarConfig(transducer=mitsonar.Transducer(bandwidth_6db=BROADBAND))
     if name in ("default_no_sidelobe_check", "default_off_beam"):
-        config = mitsonar.SonarConfig()
         change = dict(ghost_margin=0.0) if name == "default_no_sidelobe_check" \
             else dict(off_beam=True)
-        return replace(config, detection=replace(config.detection, **change))
+        return mitsonar.SonarConfig().with_detection(**change)
     return mitsonar.SonarConfig.preset(name)
 
 

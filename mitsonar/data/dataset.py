@@ -32,7 +32,7 @@ import os
 import shutil
 import tempfile
 from concurrent.futures import ProcessPoolExecutor
-from dataclasses import asdict, dataclass, field, replace
+from dataclasses import asdict, dataclass, field
 from multiprocessing import get_context
 from pathlib import Path
 
@@ -114,8 +114,7 @@ class DatasetSpec:
 
     def sonar_config(self) -> SonarConfig:
         """The sonar's configuration: ``sonar_preset``, recording ``echoes``."""
-        config = SonarConfig.preset(self.sonar_preset)
-        return replace(config, detection=replace(config.detection, echoes=self.echoes))
+        return SonarConfig.preset(self.sonar_preset).with_detection(echoes=self.echoes)
 
     def build_trajectory(self) -> Trajectory:
         if self.trajectory is None:

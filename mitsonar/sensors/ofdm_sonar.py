@@ -36,7 +36,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from mitsonar.frames import Pose
-from mitsonar.sensors.sonar import PRE_ROLL, TRACE_BATCH, Sonar
+from mitsonar.sensors.sonar import PRE_ROLL, TRACE_BATCH, Sonar, beam_seed
 from mitsonar.signal.band import Band
 from mitsonar.signal.detection import Echoes
 from mitsonar.signal.ofdm import PAPER_LISTEN, Schedule, code_set
@@ -193,7 +193,7 @@ class OfdmSonar:
         for first in range(0, len(beams), TRACE_BATCH):  # beams traced a batch at a time
             batch = slice(first, first + TRACE_BATCH)
             traces = sonar.tracer.trace_many(poses[batch], directions[batch],
-                                             [_seed(seed, b) for b in beams[batch]])
+                                             [beam_seed(seed, b) for b in beams[batch]])
             beam_groups += [[(p.delayed(offset), w)
                              for p, w in sonar.echo_groups(trace.paths, code, self.synth)]
                             for trace, offset, code in zip(traces, offsets[batch], codes[batch])]
@@ -226,7 +226,7 @@ class OfdmSonar:
             pose = poses[group[0]]
             if patches is None or not _within(patches.pose, pose, self.retrace_tolerance):
                 patches = tracer.trace_union(pose, directions,
-                                             _seed(seed, int(beams[0]), _HITS_STREAM))
+                                             beam_seed(seed, int(beams[0]), _HITS_STREAM))
             total = total + synth.element_spectrum(tracer.patch_paths(patches, pose),
                                                    [codes[i] for i in group], delays[group])
             for i in group:
@@ -253,7 +253,7 @@ class OfdmSonar:
              for u, offset, code in zip(directions, offsets, codes)], n_rx)
         total = echoes + direct_total
         band, noise_rms = self.band, sonar.config.noise_rms
-        noise_seed = _seed(seed, int(beams[0]), _NOISE_STREAM)
+        noise_seed = beam_seed(seed, int(beams[0]), _NOISE_STREAM)
         processor = self.processor
         blank = processor.noiseless_envelopes(direct_total, directions, codes)
         listening = dict(transmit_times=offsets,
@@ -309,10 +309,6 @@ def _pose_groups(poses, tolerance) -> list[list[int]]:
         else:
             groups.append([i])
     return groups
-
-
-def _seed(seed: int, *parts) -> int:
-    return int(np.random.SeedSequence([seed, *map(int, parts)]).generate_state(1)[0])
 
 
 def pose_along(trajectory, mount=None):

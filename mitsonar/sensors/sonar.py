@@ -150,6 +150,11 @@ class SonarConfig:
         except (TypeError, ValueError) as err:
             raise ValueError(f"{path}: {err}") from None
 
+    def with_detection(self, **changes) -> "SonarConfig":
+        """This configuration with ``changes`` to its :class:`DetectionSettings` (checked as
+        there), e.g. ``config.with_detection(echoes="cells")``."""
+        return replace(self, detection=replace(self.detection, **changes))
+
     @property
     def record_duration(self) -> float:
         """Recording length [s]: pre-roll, the round trip to ``max_range``, and a whole echo
@@ -333,11 +338,11 @@ class Sonar:
         found = []
         for first in range(0, len(dirs), TRACE_BATCH):
             beams = range(first, min(first + TRACE_BATCH, len(dirs)))
-            seeds = [_beam_seed(seed, b) for b in beams]
+            seeds = [beam_seed(seed, b) for b in beams]
             batch = dirs[first:beams.stop]
             traces = self.tracer.trace_many([pose] * len(beams), batch, seeds)
-            recordings = [self._record(u, trace, beam_seed)  # each beam's echoes, vectorised
-                          for u, trace, beam_seed in zip(batch, traces, seeds)]
+            recordings = [self._record(u, trace, one)  # each beam's echoes, vectorised
+                          for u, trace, one in zip(batch, traces, seeds)]
             found.append(self.processor.process_beams(recordings, batch,
                                                       self._direct_envelopes_towards(batch))[1])
             for b, recording in zip(beams, recordings):  # keep the echoes, not the paths
@@ -356,6 +361,8 @@ class Sonar:
                     carrier=band.carrier)
 
 
-def _beam_seed(seed: int, beam: int) -> int:
-    """Independent, reproducible seed of beam ``beam`` within a scan seeded with ``seed``."""
-    return int(np.random.SeedSequence([seed, beam]).generate_state(1)[0])
+def beam_seed(seed: int, beam: int, *streams: int) -> int:
+    """Independent, reproducible seed of beam ``beam`` within a scan or frame seeded with
+    ``seed`` (or of one of its ``streams``: e.g. a cycle's hits or noise, named by its first
+    beam)."""
+    return int(np.random.SeedSequence([seed, *map(int, (beam, *streams))]).generate_state(1)[0])

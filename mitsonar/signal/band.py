@@ -179,6 +179,22 @@ class Band:
         full[..., self._output_bins] = spectrum * self._output_scale
         return sfft.ifft(full, axis=-1, workers=-1)[..., : self.n_samples]
 
+    def envelopes(self, spectra: np.ndarray, filters: np.ndarray, n: int | None = None,
+                  batch: int | None = None, dtype=float) -> np.ndarray:
+        """Envelopes |a(t)| (R, n) [Pa] of spectra on the band (R, nb) matched-filtered by
+        ``filters``, (nb,) for every row or (R, nb) one per row: an inverse FFT per row
+        (:meth:`to_analytic`), ``batch`` rows at a time (default: all at once; bounds the
+        complex temporaries), kept as ``dtype``; ``n`` samples (default: :attr:`n_samples`)."""
+        n = self.n_samples if n is None else n
+        count = len(spectra)
+        batch = batch or max(count, 1)
+        out = np.empty((count, n), dtype)
+        for first in range(0, count, batch):
+            rows = slice(first, first + batch)
+            weights = filters if np.ndim(filters) == 1 else filters[rows]
+            out[rows] = np.abs(self.to_analytic(spectra[rows] * weights)[:, :n])
+        return out
+
     def band_spectra(self, samples: np.ndarray) -> np.ndarray:
         """Analytic spectra on the band (..., nb) of recorded samples (..., n_samples), real or
         baseband as this band records them: the inverse of :meth:`to_samples` on the band (the

@@ -23,7 +23,11 @@ filter:
   times the range side lobes of stronger echoes and the other codes' cross-talk, range cells
   every ceil(tau_r) across extended echoes), where that value is a peak: none of its 8
   neighbours, those on the guard ring included, is larger (an echo from outside the cone, lit by
-  the transmit side lobes, rises towards the rim: no point).
+  the transmit side lobes, rises towards the rim: no point). Unlike "cells", the range cells are
+  grown from the echoes before the checks below, and each is then checked at its own direction:
+  a cell can stay in a run whose echo the side-lobe check rejects (117-beam scans of three
+  scenes, broadband and TCT40 transducers, and OFDM frames: 2 of about 450 reported rows,
+  cells 1.2 cm from the mesh, as close as the other cells).
 * Checks at the peak direction, with the receiver's looks (each part of a code matched-filtered
   and demodulated at its tone): every part of the code there with ``part_balance`` of the
   strongest; the side-lobe check towards the peak direction (no direction of the +-50 deg
@@ -111,12 +115,10 @@ class ConeImager:
         ``filters[b]`` (B, nb)."""
         steered = (spectra * beamformer.steering(directions)).astype(np.complex64)  # (B, N_rx, nb)
         formed = np.matmul(steered.transpose(2, 0, 1), self._offset_phases)  # (nb, B, G)
-        formed = (formed.transpose(1, 2, 0) * filters[:, None, :]).reshape(-1, formed.shape[0])
-        out = np.empty((len(formed), n), np.float32)
-        for first in range(0, len(formed), ROW_BATCH):  # bounded inverse FFTs
-            rows = slice(first, first + ROW_BATCH)
-            out[rows] = np.abs(self.band.to_analytic(formed[rows])[:, :n])
-        return out.reshape(len(directions), len(self.offsets), n)
+        bins, count, grid = formed.shape
+        image = self.band.envelopes(formed.transpose(1, 2, 0).reshape(count * grid, bins),
+                                    np.repeat(filters, grid, axis=0), n, ROW_BATCH, np.float32)
+        return image.reshape(count, grid, n)
 
     def expected_false_alarms(self, detection_snr: float, duration: float,
                               rx_positions: np.ndarray, waveform=None) -> float:
@@ -140,12 +142,9 @@ def parts_balanced(beamformer: Beamformer, looks, beams: np.ndarray, samples: np
     waves = looks.waves
     table = waves.looks[beams]
     part = np.zeros(table.shape)
-    for look in range(table.shape[1]):  # a code's parts (two at most)
-        rows = np.flatnonzero(table[:, look] >= 0)
-        sets = looks.sets(beams[rows], look)
-        part[rows, look] = np.abs(beamformer.aligned(
-            looks.channels, sets, waves.carriers[table[rows, look]], samples[rows],
-            directions[rows]).sum(axis=1))
+    for look, rows, sets, carriers in looks.each(beams):  # a code's parts (two at most)
+        part[rows, look] = np.abs(beamformer.aligned(looks.channels, sets, carriers,
+                                                     samples[rows], directions[rows]).sum(axis=1))
     weakest = np.where(table >= 0, part, np.inf).min(axis=1)
     return ~waves.has_parts[beams] | (weakest >= part_balance * part.max(axis=1))
 
@@ -270,8 +269,8 @@ def cone_echoes(imager: ConeImager, image: np.ndarray, threshold: np.ndarray, wi
     :func:`~mitsonar.signal.multiecho.echo_peaks`."""
     profile, best, inside = cone_peaks(imager, image)
     loud = profile > threshold
-    found, resolved = multiecho.echo_peaks(profile, local_maxima(profile) & loud, window & inside, resolution,
-                                           clutter, margin)
+    found, resolved = multiecho.echo_peaks(profile, local_maxima(profile) & loud,
+                                           window & inside, resolution, clutter, margin)
     cells = multiecho.range_cells(profile, window & loud, inside, resolved, found, resolution,
                                   clutter, margin)
     return profile, found, cells, best

@@ -21,7 +21,7 @@ every candidate failed (``echoes`` = "first") is examined again where it arrives
 4. then, as every echo: the arrival direction refined within ``ghost_exclusion`` of that
    direction, kept where one plane wave from it explains ``min_coherence`` of the channels'
    power and it lies in the field of view, placed by the bistatic depth (7) along it
-   (:meth:`EchoProcessor._report <mitsonar.signal.receiver.EchoProcessor._report>`).
+   (:func:`mitsonar.signal.placement.report`).
 
 Such an echo is the beam's point (its :class:`~mitsonar.signal.detection.Detections` entry),
 flagged ``off_beam`` in :class:`~mitsonar.signal.detection.Echoes`: a map may keep or drop it.
@@ -35,7 +35,8 @@ import numpy as np
 
 from mitsonar.physics.array import ArrayGeometry
 from mitsonar.physics.beampattern import in_fov
-from mitsonar.signal.detection import DetectionSettings, candidates
+from mitsonar.signal import sidelobe
+from mitsonar.signal.detection import DetectionSettings
 
 
 @dataclass(frozen=True)
@@ -53,20 +54,22 @@ class Recovered:
     centre: np.ndarray
 
 
-def recover(processor, envelopes, allowed, threshold, u, looks, found) -> Recovered:
+def recover(processor, allowed, threshold, u, looks, found, strongest) -> Recovered:
     """Off-beam echoes (module docstring, steps 1-3) of the B beams not in ``found`` (their
     indices: the beams with an accepted echo).
 
     Args:
         processor: the :class:`~mitsonar.signal.receiver.EchoProcessor`.
-        envelopes: (B, N) the beams' envelopes [Pa].
         allowed: (B, N) where an echo may be (in the listening window, parts balanced).
         threshold: (B, N) the level an echo must exceed [Pa].
         u: (B, 3) beam directions.
-        looks: the beams' looks (receiver ``_Looks``: channels, waveforms).
+        looks: the beams' looks (:class:`~mitsonar.signal.looks.Looks`).
+        found: the beams with an accepted echo.
+        strongest: (beams, samples) of every beam's strongest candidate (over ``threshold``
+            where ``allowed``; :func:`~mitsonar.signal.sidelobe.strongest_echoes`).
     """
     beamformer = processor.beamformer
-    beams, samples, _ = candidates(envelopes, allowed & (envelopes > threshold), 1)
+    beams, samples = strongest
     lost = ~np.isin(beams, found)
     beams, samples = beams[lost], samples[lost]
     grid = beamformer.ghost_grid
@@ -77,8 +80,7 @@ def recover(processor, envelopes, allowed, threshold, u, looks, found) -> Recove
     beams, samples, centre = beams[keep], samples[keep], centre[keep]
     samples, loud = steered_peaks(processor, looks, threshold, allowed, beams, samples, centre)
     beams, samples, centre = beams[loud], samples[loud], centre[loud]
-    passed = processor._pass_side_lobe_check(looks, centre, beams, samples,
-                                             np.arange(len(beams)))
+    passed = sidelobe.passes(beamformer, looks, centre, beams, samples, np.arange(len(beams)))
     return Recovered(beams[passed], samples[passed], centre[passed])
 
 
@@ -86,14 +88,9 @@ def grid_power(beamformer, looks, beams, samples) -> np.ndarray:
     """(E, G) narrow-band delay-and-sum power of candidates (``beams``, integer ``samples``)
     towards the side-lobe check's G directions, summed over each beam's looks: a sparse product
     per look and carrier."""
-    grid, table = beamformer.ghost_grid, looks.waves.looks
+    grid = beamformer.ghost_grid
     power = np.zeros((len(beams), len(grid)))
-    for look in range(table.shape[1]):  # a code's parts (two at most), not beams
-        rows = np.flatnonzero(table[beams, look] >= 0)
-        if not len(rows):
-            continue
-        sets = looks.sets(beams[rows], look)
-        carriers = looks.waves.carriers[table[beams[rows], look]]
+    for _, rows, sets, carriers in looks.each(beams):  # a code's parts (two at most), not beams
         windows = beamformer.windows(looks.channels, sets, samples[rows])
         for carrier in np.unique(carriers):
             mine = carriers == carrier
@@ -113,8 +110,8 @@ def steered_peaks(processor, looks, threshold, allowed, beams, samples, centre):
     kind = waves.kind[beams]
     spectra = looks.spectra[beams] if looks.per_beam else looks.spectra[0]
     n = threshold.shape[1]
-    steered = processor._envelopes(processor.beamformer.beamformed(spectra, centre),
-                                   waves.filters[kind], n)
+    steered = processor.band.envelopes(processor.beamformer.beamformed(spectra, centre),
+                                       waves.filters[kind], n)
     reach = np.ceil(waves.range_profiles(processor)[1][kind]).astype(np.int64)  # tau_r
     offsets = np.arange(-reach.max(), reach.max() + 1)
     span = samples[:, None] + offsets

@@ -66,28 +66,30 @@ Order and choices:
   that direction; reported as "cells" are.
 * Off-beam echoes (``off_beam``, "first"): a beam's echo rejected by the side-lobe check is
   re-placed where it arrives from, flagged (:mod:`mitsonar.signal.offbeam`).
+
+This module orchestrates the chain (envelopes, part balance, thresholds and window, the choice
+of echoes by ``echoes``, clutter); the steps live by concept: :mod:`~mitsonar.signal.looks`
+(waveforms, matched filters and looks), :mod:`~mitsonar.signal.beamforming` (delay-and-sum),
+:mod:`~mitsonar.signal.sidelobe` (the side-lobe check, "first"'s strongest echo),
+:mod:`~mitsonar.signal.multiecho` (every echo, range cells, clutter), :mod:`~mitsonar.signal.cone`
+("image"), :mod:`~mitsonar.signal.offbeam` and :mod:`~mitsonar.signal.placement` (time of
+arrival, arrival direction, depth, the tables).
 """
 
 from __future__ import annotations
-
-from dataclasses import replace
 
 import numpy as np
 
 from mitsonar.physics.array import ArrayGeometry
 from mitsonar.signal.band import Band, Recording
 from mitsonar.signal.beamforming import Beamformer, dot
-from mitsonar.signal import cone, multiecho, offbeam
-from mitsonar.signal.detection import (Detection, Detections, DetectionSettings, Echoes,
-                                       bistatic_depth, bistatic_point, candidates,
-                                       local_maxima, vertex)
+from mitsonar.signal import cone, multiecho, offbeam, placement, sidelobe
+from mitsonar.signal.detection import Detection, Detections, DetectionSettings, local_maxima
+from mitsonar.signal.looks import Looks, Waveforms
 
 #: Cross-talk between the waveforms of one recording is followed out to the lags where their
 #: range profiles fall below this (:meth:`EchoProcessor._crosstalk`).
 CROSS_FLOOR = 1e-4
-#: Channel sets of the looks transformed together (bounds the memory of an OFDM cycle's looks:
-#: ~10 MB per set of 25 channels).
-LOOK_BATCH = 4
 
 
 class EchoProcessor:
@@ -137,17 +139,12 @@ class EchoProcessor:
         energy = self.matched_filter(waveform)[1]
         return 2.0 * self.noise_rms / np.sqrt(energy * self.geometry.rx.count)
 
-    def _envelopes(self, beamformed: np.ndarray, filters: np.ndarray, n: int) -> np.ndarray:
-        """Envelopes (R, n) [Pa] of beamformed spectra on the band (R, nb) matched-filtered by
-        ``filters`` (R, nb): one inverse FFT for all."""
-        return np.abs(self.band.to_analytic(beamformed * filters)[:, :n])
-
     def envelope(self, recording: Recording, direction, waveform=None) -> np.ndarray:
         """Envelope (N,) [Pa] of the beamformed, matched-filtered recording."""
         beamformed = self.beamformer.beamformed(self.band.band_spectra(recording.samples),
                                                 np.reshape(direction, (1, 3)))
-        return self._envelopes(beamformed, self.matched_filter(waveform)[0][None],
-                               recording.samples.shape[-1])[0]
+        return self.band.envelopes(beamformed, self.matched_filter(waveform)[0],
+                                   recording.samples.shape[-1])[0]
 
     def noiseless_envelopes(self, spectra: np.ndarray, directions, waveforms=None) -> np.ndarray:
         """Envelopes (B, n_samples) [Pa] of echoes given by their summed analytic spectra on the
@@ -156,9 +153,9 @@ class EchoProcessor:
         waveform (B,) (default: the pulse): :meth:`envelope` of their noiseless recordings,
         except that echoes are not cut at the recording's end."""
         u = np.reshape(directions, (-1, 3))
-        waves = _Waveforms(self, waveforms, len(u))
-        return self._envelopes(self.beamformer.beamformed(spectra, u),
-                               waves.filters[waves.kind], self.band.n_samples)
+        waves = Waveforms(self, waveforms, len(u))
+        return self.band.envelopes(self.beamformer.beamformed(spectra, u),
+                                   waves.filters[waves.kind])
 
     def noiseless_envelope(self, spectrum: np.ndarray, direction, waveform=None) -> np.ndarray:
         """:meth:`noiseless_envelopes` (n_samples,) of one beam, spectrum (N_rx, nb)."""
@@ -210,13 +207,14 @@ class EchoProcessor:
         from here on."""
         shared = spectra.ndim == 2
         u = np.asarray(directions, dtype=float).reshape(-1, 3)
-        waves = _Waveforms(self, waveforms, len(u))
+        waves = Waveforms(self, waveforms, len(u))
         beamformed = self.beamformer.beamformed(spectra, u)
         # Each part of a code is a tone: its own envelope, and an exact carrier for the looks.
         beams, look = np.nonzero((waves.looks >= 0) & waves.has_parts[:, None])
-        rows = self._envelopes(np.concatenate([beamformed, beamformed[beams]]),
-                               np.concatenate([waves.filters[waves.kind],
-                                               waves.look_filters[waves.looks[beams, look]]]), n)
+        rows = self.band.envelopes(np.concatenate([beamformed, beamformed[beams]]),
+                                   np.concatenate([waves.filters[waves.kind],
+                                                   waves.look_filters[waves.looks[beams, look]]]),
+                                   n)
         envelopes = rows[: len(u)]
         # Part envelopes (B, P, N) for the part balance; a beam without parts passes (inf >= 0).
         weakest = np.full(waves.looks.shape + (n,), np.inf)
@@ -229,7 +227,7 @@ class EchoProcessor:
             if self._cone is None:
                 self._cone = cone.ConeImager(self.geometry, self.band, self.c, s)
             image = self._cone.envelopes(self.beamformer, spectra, u, waves.filters[waves.kind], n)
-        looks = _Looks(self, spectra, waves, start_time, n) \
+        looks = Looks(self.band, spectra, waves, start_time, n) \
             if s.ghost_margin > 0 or s.arrival_step > 0 or image is not None else None
         return envelopes, self._decide(envelopes, start_time, u, direct_envelopes, waves,
                                        transmit_times, max_path_length, balanced, looks, shared,
@@ -254,7 +252,7 @@ class EchoProcessor:
         envelopes = np.asarray(envelope)[None]
         return self._decide(envelopes, start_time, np.reshape(direction, (1, 3)),
                             None if direct_envelope is None else np.asarray(direct_envelope)[None],
-                            _Waveforms(self, [waveform], 1), transmit_time, max_path_length,
+                            Waveforms(self, [waveform], 1), transmit_time, max_path_length,
                             np.ones(envelopes.shape, bool))[0]
 
     def _decide(self, envelopes, start_time, u, direct_envelopes, waves, transmit_times,
@@ -284,77 +282,54 @@ class EchoProcessor:
             raise ValueError("the recording ends before the minimum range")
         loud = envelopes > threshold
         apparent = moved = None
-        if s.echoes == "image":
-            if image is None or looks is None:
-                raise ValueError("DetectionSettings.echoes = 'image' needs the channels")
-            crosstalk = self._crosstalk(u, waves, transmit) if shared else None
-            envelopes, beams, samples, cells, apparent = self._cone_echoes(
-                image, threshold, window, u, waves, looks, crosstalk)
-        elif s.echoes == "first":
-            beams, samples = self._strongest_echoes(envelopes, window & loud & balanced, u,
-                                                    looks)
+        if s.echoes == "image" and (image is None or looks is None):
+            raise ValueError("DetectionSettings.echoes = 'image' needs the channels")
+        if s.echoes == "first":
+            beams, samples, strongest = sidelobe.strongest_echoes(
+                self.beamformer, looks, envelopes, window & loud & balanced, u)
             cells = (np.zeros(0, np.int64),) * 2
             if s.off_beam and looks is not None:
-                moved = offbeam.recover(self, envelopes, window & balanced, threshold, u, looks,
-                                        beams)
+                moved = offbeam.recover(self, window & balanced, threshold, u, looks, beams,
+                                        strongest)
         else:
-            crosstalk = self._crosstalk(u, waves, transmit) if shared else None
-            beams, samples, cells = self._every_echo(envelopes, loud, window, balanced, u, waves,
-                                                     looks, crosstalk)
-        return self._report(envelopes, threshold, window, start_time, transmit, u, waves, looks,
-                            beams, samples, cells, apparent, moved)
+            clutter, resolution = self._clutter(u, waves, transmit if shared else None)
+            if s.echoes == "image":
+                envelopes, beams, samples, cells, apparent = self._cone_echoes(
+                    image, threshold, window, u, looks, clutter, resolution)
+            else:
+                beams, samples, cells = self._every_echo(envelopes, loud, window, balanced, u,
+                                                         looks, clutter, resolution)
+        return placement.report(self, envelopes, threshold, window, start_time, transmit, u,
+                                waves, looks, beams, samples, cells, apparent, moved)
 
-    def _strongest_echoes(self, envelopes, accepted, u, looks):
-        """(beams, samples) of each beam's strongest candidate that arrives along it, by beam
-        (``echoes`` = "first"); ``accepted`` (B, N): where a candidate may be."""
-        s = self.settings
-        beams, samples, ranks = candidates(envelopes, accepted, s.max_candidates)
-        if looks is not None and s.ghost_margin > 0:
-            # Each beam's strongest candidate first; the others where it arrives off the beam.
-            strongest = ranks == 0
-            passed = strongest.copy()
-            passed[strongest] = self._pass_side_lobe_check(looks, u, beams[strongest],
-                                                           samples[strongest])
-            done = np.zeros(len(envelopes), bool)
-            done[beams[passed]] = True
-            retry = (ranks > 0) & ~done[beams]
-            passed[retry] = self._pass_side_lobe_check(looks, u, beams[retry], samples[retry])
-            beams, samples = beams[passed], samples[passed]
-        found, first = np.unique(beams, return_index=True)  # each beam's strongest left
-        return found, samples[first]
-
-    def _every_echo(self, envelopes, loud, window, balanced, u, waves, looks, crosstalk):
+    def _every_echo(self, envelopes, loud, window, balanced, u, looks, clutter, resolution):
         """(beams, samples) of every echo of B beams and (beams, samples) of their range cells
         (``echoes`` = "all": none), each that arrives along its beam
         (:mod:`mitsonar.signal.multiecho`). Masks (B, N): ``loud`` the envelope over the
         threshold, ``window`` the listening window, ``balanced`` the parts balanced; the
         echoes outside the window count as clutter too (a far wall's echo leaks into the window
-        of other codes). ``crosstalk``: the beams' cross-talk in a shared recording
-        (:meth:`_crosstalk`) or None."""
+        of other codes). ``clutter``, ``resolution`` (B,): :meth:`_clutter`."""
         s = self.settings
-        lobes, resolution = waves.range_profiles(self)
-        resolution = resolution[waves.kind]
-        clutter = multiecho.Clutter(lobes, waves.kind, crosstalk)
-        found, resolved = multiecho.echo_peaks(envelopes, local_maxima(envelopes) & loud, window & balanced,
-                                               resolution, clutter, s.clutter_margin)
-        found = self._along_beam(looks, u, *found)
+        found, resolved = multiecho.echo_peaks(envelopes, local_maxima(envelopes) & loud,
+                                               window & balanced, resolution, clutter,
+                                               s.clutter_margin)
+        found = sidelobe.along_beam(self.beamformer, looks, u, *found)
         cells = (np.zeros(0, np.int64),) * 2
         if s.echoes == "cells":
             cells = multiecho.range_cells(envelopes, window & loud, balanced, resolved, found,
                                           resolution, clutter, s.clutter_margin)
-            cells = self._along_beam(looks, u, *cells)
+            cells = sidelobe.along_beam(self.beamformer, looks, u, *cells)
         return found[0], found[1], cells
 
-    def _cone_echoes(self, image, threshold, window, u, waves, looks, crosstalk):
+    def _cone_echoes(self, image, threshold, window, u, looks, clutter, resolution):
         """(profile M (B, N) [Pa], beams, samples of the echoes, (beams, samples) of the range
         cells, (E, 2) direction cosines where each row's image peaks) of B beams' cone images
         (``echoes`` = "image", :mod:`mitsonar.signal.cone`): rows kept where every part of the
-        code is there at that direction and it passes the side-lobe check there."""
+        code is there at that direction and it passes the side-lobe check there. ``clutter``,
+        ``resolution`` (B,): :meth:`_clutter`."""
         s = self.settings
-        lobes, resolution = waves.range_profiles(self)
-        profile, found, cells, best = cone.cone_echoes(
-            self._cone, image, threshold, window, resolution[waves.kind],
-            multiecho.Clutter(lobes, waves.kind, crosstalk), s.clutter_margin)
+        profile, found, cells, best = cone.cone_echoes(self._cone, image, threshold, window,
+                                                       resolution, clutter, s.clutter_margin)
         beams, samples = (np.concatenate(x) for x in zip(found, cells))
         apparent = cone.apparent_directions(self._cone, image, u, beams, samples, best)
         directions = cone.unit_direction(apparent)
@@ -362,11 +337,20 @@ class EchoProcessor:
                                      s.part_balance)
         if s.ghost_margin > 0:
             todo = np.flatnonzero(passed)
-            passed[todo] = self._pass_side_lobe_check(looks, directions[todo], beams[todo],
-                                                      samples[todo], np.arange(len(todo)))
+            passed[todo] = sidelobe.passes(self.beamformer, looks, directions[todo],
+                                           beams[todo], samples[todo], np.arange(len(todo)))
         echo = passed & (np.arange(len(beams)) < len(found[0]))
-        return (profile, beams[echo], samples[echo], (beams[passed & ~echo],
-                samples[passed & ~echo]), np.concatenate([apparent[echo], apparent[passed & ~echo]]))
+        cell = passed & ~echo
+        return (profile, beams[echo], samples[echo], (beams[cell], samples[cell]),
+                np.concatenate([apparent[echo], apparent[cell]]))
+
+    def _clutter(self, u, waves, transmit=None):
+        """(:class:`~mitsonar.signal.multiecho.Clutter`, tau_r (B,) [samples]) of B beams: each
+        kind's range side lobes and, in one recording shared by all (their firing times
+        ``transmit`` (B,) [s] given), their cross-talk (:meth:`_crosstalk`)."""
+        lobes, resolution = waves.range_profiles(self)
+        crosstalk = None if transmit is None else self._crosstalk(u, waves, transmit)
+        return multiecho.Clutter(lobes, waves.kind, crosstalk), resolution[waves.kind]
 
     def _crosstalk(self, u, waves, transmit):
         """(|X| (K, K, 2 S + 1), transmit and receive gains (B, B), firing times (B,) [samples])
@@ -386,201 +370,10 @@ class EchoProcessor:
                                 for a, b in missing]) * delay
             lobes = np.abs(band.to_analytic(spectra)[:, : 2 * span + 1])
             self._crosstalks.update(((a, b, span), x) for (a, b), x in zip(missing, lobes))
-        table = np.stack([[self._crosstalks[a, b, span] for b in waves.kinds] for a in waves.kinds])
+        table = np.stack([[self._crosstalks[a, b, span] for b in waves.kinds]
+                          for a in waves.kinds])
         frequencies = np.array([float(w.frequency) for w in waves.kinds])[waves.kind]
         g = self.geometry
         return (table, multiecho.array_gains(g.tx_positions, u, frequencies, self.c),
                 multiecho.array_gains(g.rx_positions, u, frequencies, self.c).T,
                 transmit * self.band.sample_rate)
-
-    def _along_beam(self, looks, u, beams, samples):
-        """The (beams, samples) that pass the side-lobe check (all without looks or with
-        ``ghost_margin`` = 0)."""
-        if looks is None or self.settings.ghost_margin <= 0:
-            return beams, samples
-        passed = self._pass_side_lobe_check(looks, u, beams, samples)
-        return beams[passed], samples[passed]
-
-    def _report(self, envelopes, threshold, window, start_time, transmit, u, waves, looks,
-                beams, samples, cells, apparent=None, moved=None) -> Detections:
-        """:class:`Detections` and :class:`Echoes` of B beams from their echoes (beams,
-        samples), by beam and then by decreasing amplitude, and their range cells (beams,
-        samples): each placed (time of arrival, arrival direction, bistatic depth (7)); with
-        ``echoes`` = "all", "cells" or "image", kept where their direction is trustworthy
-        (``min_coherence``). ``apparent`` (E, 2): "image"'s directions, echoes then cells
-        (:func:`~mitsonar.signal.cone.place`); ``moved``: off-beam echoes (:mod:`.offbeam`)."""
-        s, g = self.settings, self.geometry
-        fs = self.band.sample_rate
-        count = len(envelopes)
-        beams, k, peak, centre, off_beam = offbeam.rows(beams, samples, cells, u, moved)
-        refined = np.where(peak & ~off_beam, vertex(envelopes[beams, k - 1], envelopes[beams, k],
-                                        envelopes[beams, k + 1]), 0.0)
-        sample = k + refined
-        toa = start_time - transmit[beams] + sample / fs
-        l = self.c * toa
-        coherence = np.full(len(beams), np.nan)
-        if looks is not None and (s.arrival_step > 0 or apparent is not None) and len(beams):
-            look, row = np.nonzero(waves.looks[beams].T >= 0)  # every row's first look first
-            sets = looks.sets(beams[row], look)
-            carriers = waves.carriers[waves.looks[beams[row], look]]
-            arrival = self.beamformer.arrival_directions(
-                looks.channels, sets, carriers, row, sample, centre) if apparent is None \
-                else cone.unit_direction(apparent)  # where the plane-wave beams peak
-            coherence = self.beamformer.coherence(looks.channels, sets, carriers, row, sample,
-                                                  arrival)
-            if apparent is not None:  # (7) from the receive origin, near field corrected
-                point, arrival = cone.place(g, np.zeros(3), l, apparent)
-            elif s.echoes == "first":  # placed from the receive origin, as ever
-                receive_range = bistatic_depth(l, g.baseline,
-                                               -dot(arrival, g.rx_origin) / g.baseline)
-                point = g.rx_origin + receive_range[:, None] * arrival
-            else:  # from the receive array's phase centre, where the arrival is measured
-                point = bistatic_point(l, arrival, g.rx_positions.mean(axis=0), np.zeros(3),
-                                       g.rx_origin)
-        else:
-            arrival = u[beams]
-            cos_b = dot(u, g.rx_origin) / g.baseline
-            point = bistatic_depth(l, g.baseline, cos_b[beams])[:, None] * arrival
-        # The single-detection path trusts every direction; the others those that one plane wave
-        # explains, and echoes without a measured direction (on the beam axis, as the paper).
-        trusted = np.where(off_beam, offbeam.trusted(coherence, arrival, g, s),
-                           (s.echoes == "first") | (coherence >= s.min_coherence)
-                           | (peak & np.isnan(coherence)))
-        noise = waves.noise[waves.kind[beams]]
-        with np.errstate(divide="ignore"):  # no receiver noise: infinite SNR
-            snr = envelopes[beams, k] / noise
-        table = Echoes(beam=beams, rank=np.zeros(len(beams), np.int64), peak=peak,
-                       amplitude=envelopes[beams, k], snr=snr, time_of_arrival=toa,
-                       path_length=l, depth=np.linalg.norm(point, axis=-1), point=point,
-                       direction=arrival, coherence=coherence, off_beam=off_beam)
-        rows = np.flatnonzero(trusted)
-        rows = rows[np.lexsort((-table.amplitude[rows], ~peak[rows], beams[rows]))]
-        table, k = table.take(rows), k[rows]
-        rank = np.arange(len(rows)) - np.searchsorted(table.beam, table.beam)
-        table = replace(table, rank=rank)
-        every = np.arange(count)
-        k_max = np.argmax(np.where(window, envelopes, -np.inf), axis=1)
-        out = dict(detected=np.zeros(count, bool), time_of_arrival=np.full(count, np.nan),
-                   path_length=np.full(count, np.nan), depth=np.full(count, np.nan),
-                   point=np.full((count, 3), np.nan), direction=np.full((count, 3), np.nan),
-                   amplitude=envelopes[every, k_max], threshold=threshold[every, k_max])
-        first = rank == 0
-        found = table.beam[first]
-        for name, value in (("detected", True), ("time_of_arrival", table.time_of_arrival),
-                            ("path_length", table.path_length), ("depth", table.depth),
-                            ("point", table.point), ("direction", table.direction),
-                            ("amplitude", table.amplitude),
-                            ("threshold", threshold[table.beam, k])):
-            out[name][found] = value if np.ndim(value) == 0 else value[first]
-        return Detections(**out, echoes=table)
-
-    def _pass_side_lobe_check(self, looks, u, beams, samples, rows=None) -> np.ndarray:
-        """(E,) True where candidate sample ``samples[e]`` of beam ``beams[e]`` arrives along
-        ``u[beams[e]]`` (the beam's direction), or ``u[rows[e]]`` if ``rows`` are given, in every
-        look (:meth:`Beamformer.off_beam <mitsonar.signal.beamforming.Beamformer.off_beam>`),
-        looks checked one after another: a candidate rejected in one is not checked in the
-        next."""
-        rows = beams if rows is None else rows
-        table = looks.waves.looks
-        passed = np.ones(len(beams), bool)
-        for look in range(table.shape[1]):
-            todo = np.flatnonzero(passed & (table[beams, look] >= 0))
-            if len(todo):
-                b = beams[todo]
-                sets = looks.sets(b, look)
-                passed[todo] = ~self.beamformer.off_beam(looks.channels, sets, samples[todo],
-                                                         looks.waves.carriers[table[b, look]],
-                                                         u[rows[todo]])
-        return passed
-
-
-class _Looks:
-    """The looks of B beams for the side-lobe check and the arrival direction: channels
-    (N_rx, N) matched-filtered for a look waveform (a code's part, or the waveform itself) and
-    demodulated at its carrier; each distinct (recording, look waveform) computed once, when
-    first asked for.
-
-    Args:
-        processor: the receiver.
-        spectra: channel spectra on the band, (N_rx, nb) shared or (B, N_rx, nb) per beam.
-        waves: the beams' waveforms.
-        start_time: time of sample 0 [s].
-        n: samples per channel.
-    """
-
-    def __init__(self, processor: EchoProcessor, spectra: np.ndarray, waves: _Waveforms,
-                 start_time: float, n: int):
-        self.band = processor.band
-        self.waves = waves
-        self.per_beam = spectra.ndim == 3
-        self.spectra = spectra.reshape((-1,) + spectra.shape[-2:])
-        #: (sets, N_rx, n): set r x T + t is recording r's look waveform t (T of them); filled
-        #: when first asked for by :meth:`sets`.
-        self.channels = np.empty((len(self.spectra) * len(waves.carriers),) + spectra.shape[-2:-1]
-                                 + (n,), dtype=complex)
-        self._ready = np.zeros(len(self.channels), bool)
-        self._times = start_time + np.arange(n) / self.band.sample_rate
-
-    def sets(self, beams, look) -> np.ndarray:
-        """Sets (E,) in :attr:`channels` of looks ``look`` ((E,) or one for all) of ``beams``
-        (E,), computed where new: an inverse FFT for every ``LOOK_BATCH`` of them."""
-        n_looks = len(self.waves.carriers)
-        keys = (beams if self.per_beam else 0) * n_looks + self.waves.looks[beams, look]
-        new = np.unique(keys[~self._ready[keys]])
-        for first in range(0, len(new), LOOK_BATCH):
-            batch = new[first: first + LOOK_BATCH]
-            recording, waveform = np.divmod(batch, n_looks)
-            # The band's analytic signals are already demodulated by its own carrier.
-            offset = (self.waves.carriers[waveform] - self.band.carrier)[:, None]  # [Hz]
-            shift = np.exp(-2j * np.pi * offset * self._times)
-            analytic = self.band.to_analytic(self.spectra[recording]
-                                             * self.waves.look_filters[waveform][:, None])
-            self.channels[batch] = analytic[..., : len(self._times)] * shift[:, None, :]
-            self._ready[batch] = True
-        return keys
-
-
-class _Waveforms:
-    """The drive waveforms of B beams, by kind (distinct waveform, :attr:`kinds`): matched
-    filters (K, nb) and noise envelope levels (K,) [Pa]; and their looks (the parts of a code,
-    or the waveform itself): matched filters (T, nb) and carriers (T,) [Hz].
-
-    Attributes:
-        kind: (B,) each beam's kind.
-        looks: (B, P) each beam's looks (-1: none).
-        has_parts: (B,) whether a beam's looks are parts of its waveform (with envelopes of their
-            own, for the part balance).
-    """
-
-    def __init__(self, processor: EchoProcessor, waveforms, count: int):
-        pulse = processor.band.pulse
-        if waveforms is None:
-            kinds, self.kind = [pulse], np.zeros(count, np.int64)
-        else:
-            kinds, self.kind = _distinct([pulse if w is None else w for w in waveforms])
-        self.kinds = kinds
-        self.filters = np.stack([processor.matched_filter(w)[0] for w in kinds])
-        self.noise = np.array([processor.noise_envelope_rms(w) for w in kinds])
-        parts = [tuple(getattr(w, "parts", ())) for w in kinds]
-        looks = [p or (w,) for p, w in zip(parts, kinds)]
-        tones = list(dict.fromkeys(t for look in looks for t in look))
-        table = np.full((len(kinds), max(map(len, looks))), -1)
-        for k, look in enumerate(looks):
-            table[k, : len(look)] = [tones.index(t) for t in look]
-        self.looks = table[self.kind]
-        self.has_parts = np.array([len(p) > 0 for p in parts])[self.kind]
-        self.look_filters = np.stack([processor.matched_filter(t)[0] for t in tones])
-        self.carriers = np.array([float(t.frequency) for t in tones])
-
-    def range_profiles(self, processor: EchoProcessor) -> tuple[np.ndarray, np.ndarray]:
-        """(|R| by lag (K, N), tau_r (K,) [samples]) of each kind
-        (:meth:`EchoProcessor.range_profile`)."""
-        lobes, resolution = zip(*map(processor.range_profile, self.kinds))
-        return np.stack(lobes), np.array(resolution)
-
-
-def _distinct(items) -> tuple[list, np.ndarray]:
-    """(the distinct items in order of first appearance, index (len(items),) of each among them)."""
-    index: dict = {}
-    which = np.array([index.setdefault(w, len(index)) for w in items], np.int64)
-    return list(index), which

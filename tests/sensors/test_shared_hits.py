@@ -94,5 +94,13 @@ def test_beams_fired_from_nearby_poses_form_one_group():
     assert _pose_groups(poses, (0.01, np.radians(0.5))) == [[0, 1, 2], [3], [4]]
     turned = [mitsonar.Pose.planar(0.0, 0.0, yaw) for yaw in np.radians([0.0, 0.4, 0.6])]
     assert _pose_groups(turned, (0.01, np.radians(0.5))) == [[0, 1], [2]]
-    with pytest.raises(ValueError, match="pose_tolerance"):
-        OfdmSonar.__init__(object.__new__(OfdmSonar), None, pose_tolerance=(-1.0, 0.0))
+
+
+@pytest.mark.parametrize("name", ["pose_tolerance", "retrace_tolerance"])
+def test_negative_tolerances_are_refused_by_name(scene_file, name):
+    """A negative distance or angle of either tolerance: one error naming it."""
+    path, config, _ = two_targets(scene_file, TRANSDUCERS["narrow-band"])
+    sonar = mitsonar.Sonar(path, config)
+    for bad in ((-1.0, 0.0), (0.0, -0.1)):
+        with pytest.raises(ValueError, match=name):
+            OfdmSonar(sonar, **{name: bad})

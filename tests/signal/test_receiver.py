@@ -8,7 +8,7 @@ from helpers import IDENTITY
 from mitsonar.frames import direction_from_fov_angles
 from mitsonar.scene.xml import material_xml, rectangle_xml, sphere_xml, write_scene
 from mitsonar.sensors.ofdm_sonar import OfdmSonar
-from mitsonar.sensors.sonar import _beam_seed
+from mitsonar.sensors.sonar import beam_seed
 
 #: Batched and beam-by-beam results may differ by floating-point summation order only
 #: (measured: equal).
@@ -54,7 +54,7 @@ def test_a_scan_gives_each_beam_what_a_ping_gives_it(targets):
     ping per beam."""
     sonar, directions = targets
     scan = sonar.scan(IDENTITY, directions, seed=2)
-    pings = [sonar.ping(IDENTITY, u, seed=_beam_seed(2, b)).detection
+    pings = [sonar.ping(IDENTITY, u, seed=beam_seed(2, b)).detection
              for b, u in enumerate(directions)]
     _assert_same(dict(detected=scan.detected, depth=scan.depth, point=scan.points_sensor,
                       amplitude=scan.amplitude), pings)

@@ -283,7 +283,7 @@ def test_beams_traced_together_equal_beams_traced_alone(scene_file):
             a, b = getattr(batch.paths, name), getattr(alone.paths, name)
             np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-12 * np.abs(b).max(initial=1.0))
     scan = sonar.scan(IDENTITY, directions[:10], seed=3)
-    pings = [sonar.ping(IDENTITY, u, seed=mitsonar.sensors.sonar._beam_seed(3, b))
+    pings = [sonar.ping(IDENTITY, u, seed=mitsonar.sensors.sonar.beam_seed(3, b))
              for b, u in enumerate(directions[:10])]
     np.testing.assert_array_equal(scan.depth, [p.detection.depth for p in pings])
     assert np.isfinite(scan.depth).sum() >= 3
