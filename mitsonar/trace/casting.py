@@ -20,6 +20,8 @@ from mitsonar.jit import backend, to_jit
 from mitsonar.physics.array import ArrayGeometry
 from mitsonar.scene.loading import AcousticScene, mitsuba
 from mitsonar.scene.rays import rays
+from mitsonar.trace.density import (DEPTH_JUMP, block_cells, block_sizes, blocks,
+                                    patch_phase_error, uniform_blocks)
 
 #: Offset of secondary ray origins from a surface [m].
 _EPS = 1e-4
@@ -51,6 +53,17 @@ def _unit(v):
     return v / _length(v)[..., None]
 
 
+def ray_differentials(d, norm_v, e1, e2, wa, wb):
+    """Edges (dd1, dd2) (H, 3) of the cells of rays of unit directions ``d`` (H, 3) through
+    tangent-plane offsets of norm ``norm_v`` (H,) = |u + a e1 + b e2| and widths ``wa``, ``wb``
+    (H,) along the tangent axes ``e1``, ``e2`` ((H, 3) or (3,)): the changes of the unit
+    direction across the cell (perpendicular to ``d``)."""
+    inv = (1.0 / norm_v)[:, None]
+    dd1 = (e1 - d * _rows_dot(d, e1)[:, None]) * inv * wa[:, None]
+    dd2 = (e2 - d * _rows_dot(d, e2)[:, None]) * inv * wb[:, None]
+    return dd1, dd2
+
+
 def _rotate(rotation, v, inverse: bool = False):
     """Rows (K, 3) rotated by their own matrices (K, 3, 3) (transposed with ``inverse``)."""
     return np.einsum("kji,kj->ki" if inverse else "kij,kj->ki", rotation, v)
@@ -63,14 +76,18 @@ class RayCaster:
         scene: the loaded acoustic scene.
         geometry: arrays of the sensor head.
         settings: the trace's :class:`~mitsonar.trace.tracer.TraceSettings` (grid, refinement,
-            shadow rays).
+            merging, shadow rays).
+        wavenumbers: (carrier, top of the band) [rad/m] of the patch criterion
+            (:mod:`mitsonar.trace.density`); None: cells are never merged.
     """
 
-    def __init__(self, scene: AcousticScene, geometry: ArrayGeometry, settings):
+    def __init__(self, scene: AcousticScene, geometry: ArrayGeometry, settings,
+                 wavenumbers: tuple[float, float] | None = None):
         self.mi = mitsuba()
         self.scene = scene
         self.geometry = geometry
         self.settings = settings
+        self._wavenumbers = wavenumbers
         self._transparent = np.array([m.transparent for m in scene.materials])
         s = settings
         if s.model == "paper":
@@ -268,20 +285,97 @@ class RayCaster:
         return visible.reshape(len(points), len(rx)).astype(float)
 
 
+    def _merging(self) -> bool:
+        """Whether cells are merged where the patch criterion allows (and split only where it
+        asks): the physical model with a merge size above 1 and known wavenumbers."""
+        s = self.settings
+        return s.model == "physical" and s.max_merge > 1 and self._wavenumbers is not None
+
+    def _phase_error(self, rotation, u, e1, e2, beam, a, b, wa, wb, t, n_w):
+        """(K,) phase error [rad] of the patches of cells (a, b, wa, wb) (K,) of grids ``beam``
+        at ranges ``t`` on surfaces of world normals ``n_w`` (K, 3)
+        (:func:`~mitsonar.trace.density.patch_phase_error`)."""
+        v = u[beam] + a[:, None] * e1[beam] + b[:, None] * e2[beam]
+        norm_v = _length(v)
+        d = v / norm_v[:, None]
+        dd1, dd2 = ray_differentials(d, norm_v, e1[beam], e2[beam], wa, wb)
+        normals = _rotate(rotation[beam], n_w, inverse=True)
+        return patch_phase_error(t, d, normals, dd1, dd2, *self._wavenumbers[::-1])
+
+    def _merged(self, rotation, translation, u, e1, e2, grid, t, n_w, shapes, free):
+        """Blocks of cells merged into one ray each (:mod:`~mitsonar.trace.density`).
+
+        Args:
+            grid: (a, b, wa, wb, inside), each (G, n_a, n_b), as :meth:`_cast_grid` takes it.
+            t, n_w, shapes: (G, n_a, n_b) ranges, (G, n_a, n_b, 3) world normals and shape ids
+                of the cells' rays.
+            free: (G, n_a, n_b) cells that may be merged (inside, hit, not split).
+        Returns:
+            The merged rays (a, b, wa, wb, d, |u + a e1 + b e2|, t, points, normals, material,
+            grid index), each (M, ...), and the (G x n_a x n_b,) cells they replace.
+        """
+        s = self.settings
+        n_grids, n_a, n_b = free.shape
+        cell = np.arange(free.size).reshape(free.shape)
+        normals = n_w.reshape(-1, 3)
+        flip = _rows_dot(normals, _rotate(np.repeat(rotation, n_a * n_b, axis=0),
+                                          self._grid_directions(u, e1, e2, grid))) > 0
+        facing = np.where(flip[:, None], -normals, normals).reshape(n_w.shape)
+        covered = np.zeros(free.size, bool)
+        chosen = []  # per block size: (block centres and widths, grid, cells, shape, range)
+        for size in block_sizes(s.max_merge):
+            ok = uniform_blocks(size, free & ~covered.reshape(free.shape), shapes, facing, t,
+                                s.refine_normal_angle)
+            g, i, j = np.nonzero(ok)
+            centre = [x[g, i, j] for x in block_cells(*grid[:4], size)]
+            cells = blocks(cell, size, -1)[g, i, j]  # (K, size^2)
+            depth = t.ravel()[cells].max(axis=-1)
+            normal = facing.reshape(-1, 3)[cells].sum(axis=1)
+            within = self._phase_error(rotation, u, e1, e2, g, *centre, depth,
+                                       _unit(normal)) <= s.max_patch_phase
+            if np.any(within):
+                covered[cells[within].ravel()] = True
+                chosen.append((*(x[within] for x in centre), g[within], cells[within],
+                               shapes.ravel()[cells[within, 0]], depth[within]))
+        if not chosen:
+            return None, np.zeros(free.size, bool)
+        a, b, wa, wb, beam = (np.concatenate([c[k] for c in chosen]) for k in range(5))
+        d, norm_v, (t_m, p_m, n_m, mat_m, shape_m) = self._cast(
+            rotation, translation, u, e1, e2, beam, a, b)
+        # The centre ray must find the same surface at the block's depth, else the cells stay.
+        shape_ref, depth = (np.concatenate([c[k] for c in chosen]) for k in (6, 7))
+        good = (shape_m == shape_ref) & (np.abs(t_m - depth) <= DEPTH_JUMP * depth)
+        replaced = np.zeros(free.size, bool)
+        start = 0
+        for c in chosen:  # per block size (a few)
+            replaced[c[5][good[start:start + len(c[5])]].ravel()] = True
+            start += len(c[5])
+        return tuple(x[good] for x in (a, b, wa, wb, d, norm_v, t_m, p_m, n_m, mat_m, beam)), \
+            replaced
+
+    @staticmethod
+    def _grid_directions(u, e1, e2, grid):
+        """(G x n_a x n_b, 3) unit directions (sensor frame) of the cells of ``grid``."""
+        a, b = grid[0], grid[1]
+        v = u[:, None, None] + a[..., None] * e1[:, None, None] + b[..., None] * e2[:, None, None]
+        return _unit(v).reshape(-1, 3)
+
     def _cast_grid(self, rotation, translation, u, e1, e2, grid, refinable, dense=None):
         """Cast the rays of G grids of cells, grid g around axis u[g] (G, 3) with tangent basis
-        e1[g], e2[g] from pose (rotation[g] (3, 3), translation[g] (3,)), and refine them.
+        e1[g], e2[g] from pose (rotation[g] (3, 3), translation[g] (3,)), refine them, and merge
+        blocks of cells where the patch criterion allows (:meth:`_merging`).
 
         Args:
             grid: (a, b, wa, wb, inside), each (G, n_a, n_b): cell centres and widths in the
                 tangent plane, and the cells traced.
             refinable: (G, n_a, n_b) cells that may be split at silhouettes (or None).
-            dense: (G, n_a, n_b) cells split whatever they hit (or None).
+            dense: (G, n_a, n_b) cells split whatever they hit (or None); when merging, only
+                those whose patch misses the criterion.
         Returns:
-            The rays kept (each grid's cells in grid order, then its sub-rays), as arrays over
-            rays: tangent offsets a, b and widths wa, wb, directions d (sensor frame),
-            |u + a e1 + b e2|, t (inf: miss), world hit points and normals, material index,
-            and grid index; and the ray count per grid (G,).
+            The rays kept (each grid's cells in grid order, then its sub-rays and merged rays),
+            as arrays over rays: tangent offsets a, b and widths wa, wb, directions d (sensor
+            frame), |u + a e1 + b e2|, t (inf: miss), world hit points and normals, material
+            index, and grid index; and the ray count per grid (G,).
         """
         s = self.settings
         inside = grid[4]
@@ -296,13 +390,22 @@ class RayCaster:
         d[keep], norm_v[keep], (t[keep], p_w[keep], n_w[keep], mats[keep], shapes[keep]) = \
             self._cast(rotation, translation, u, e1, e2, beam[keep], a[keep], b[keep])
         m = s.refine
+        split = np.zeros(len(a), bool)
+        extra = []  # rays added: sub-rays, merged rays
+        hit = np.isfinite(t) & (mats >= 0)
         if m > 1 and s.model == "physical":
-            split = (self._refine_mask(inside, t.reshape(shape), n_w.reshape(shape + (3,)),
-                                       shapes.reshape(shape)) & refinable).ravel()
             if dense is not None:
-                split |= (dense & inside).ravel()
+                split = (dense & inside).ravel()
+                if self._merging():  # dense only where the criterion asks
+                    rows = np.flatnonzero(split & hit)
+                    split[rows] = self._phase_error(
+                        rotation, u, e1, e2, beam[rows], a[rows], b[rows], wa[rows], wb[rows],
+                        t[rows], n_w[rows]) > s.max_patch_phase
+            # The refinement's mask, where it can still split a cell.
+            if refinable is not None and np.any(refinable.ravel() & inside.ravel() & ~split):
+                split |= (self._refine_mask(inside, t.reshape(shape), n_w.reshape(shape + (3,)),
+                                            shapes.reshape(shape)) & refinable).ravel()
             if np.any(split):
-                keep &= ~split
                 frac = (np.arange(m) + 0.5) / m - 0.5
                 fa, fb = np.meshgrid(frac, frac, indexing="ij")
                 ca = (a[split, None] + fa.ravel()[None] * wa[split, None]).ravel()
@@ -312,11 +415,22 @@ class RayCaster:
                 cbeam = np.repeat(beam[split], m * m)
                 cd, cnorm, (ct, cp, cn, cmat, _) = self._cast(rotation, translation, u, e1, e2,
                                                               cbeam, ca, cb)
-                # Per grid: its kept rays in grid order, then its sub-rays.
-                order = np.argsort(np.concatenate([beam[keep], cbeam]), kind="stable")
-                return tuple(np.concatenate([x[keep], y])[order] for x, y in
-                             ((a, ca), (b, cb), (wa, cwa), (wb, cwb), (d, cd), (norm_v, cnorm),
-                              (t, ct), (p_w, cp), (n_w, cn), (mats, cmat), (beam, cbeam))), \
-                    np.bincount(np.concatenate([beam[keep], cbeam]), minlength=shape[0])
-        rays_kept = tuple(x[keep] for x in (a, b, wa, wb, d, norm_v, t, p_w, n_w, mats, beam))
-        return rays_kept, np.bincount(beam[keep], minlength=shape[0])
+                extra.append((ca, cb, cwa, cwb, cd, cnorm, ct, cp, cn, cmat, cbeam))
+        keep &= ~split
+        if self._merging():
+            merged, replaced = self._merged(
+                rotation, translation, u, e1, e2, grid, t.reshape(shape),
+                n_w.reshape(shape + (3,)), shapes.reshape(shape), (keep & hit).reshape(shape))
+            if merged is not None:
+                keep &= ~replaced
+                extra.append(merged)
+        rays = (a, b, wa, wb, d, norm_v, t, p_w, n_w, mats, beam)
+        if extra:
+            # Per grid: its kept rays in grid order, then its sub-rays and merged rays.
+            order = np.argsort(np.concatenate([beam[keep]] + [x[-1] for x in extra]),
+                               kind="stable")
+            rays_kept = tuple(np.concatenate([x[keep]] + [y[k] for y in extra])[order]
+                              for k, x in enumerate(rays))
+        else:
+            rays_kept = tuple(x[keep] for x in rays)
+        return rays_kept, np.bincount(rays_kept[-1], minlength=shape[0])
