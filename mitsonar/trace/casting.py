@@ -291,16 +291,16 @@ class RayCaster:
         s = self.settings
         return s.model == "physical" and s.max_merge > 1 and self._wavenumbers is not None
 
-    def _phase_error(self, rotation, u, e1, e2, beam, a, b, wa, wb, t, n_w):
+    def _phase_error(self, rotation, u, e1, e2, beam, a, b, wa, wb, t, n_w, spread):
         """(K,) phase error [rad] of the patches of cells (a, b, wa, wb) (K,) of grids ``beam``
-        at ranges ``t`` on surfaces of world normals ``n_w`` (K, 3)
-        (:func:`~mitsonar.trace.density.patch_phase_error`)."""
+        at ranges ``t`` on surfaces of world normals ``n_w`` (K, 3) spread by ``spread`` (K,)
+        [rad] (:func:`~mitsonar.trace.density.patch_phase_error`)."""
         v = u[beam] + a[:, None] * e1[beam] + b[:, None] * e2[beam]
         norm_v = _length(v)
         d = v / norm_v[:, None]
         dd1, dd2 = ray_differentials(d, norm_v, e1[beam], e2[beam], wa, wb)
         normals = _rotate(rotation[beam], n_w, inverse=True)
-        return patch_phase_error(t, d, normals, dd1, dd2, *self._wavenumbers[::-1])
+        return patch_phase_error(t, d, normals, dd1, dd2, *self._wavenumbers[::-1], spread)
 
     def _merged(self, rotation, translation, u, e1, e2, grid, t, n_w, shapes, free):
         """Blocks of cells merged into one ray each (:mod:`~mitsonar.trace.density`).
@@ -330,9 +330,12 @@ class RayCaster:
             centre = [x[g, i, j] for x in block_cells(*grid[:4], size)]
             cells = blocks(cell, size, -1)[g, i, j]  # (K, size^2)
             depth = t.ravel()[cells].max(axis=-1)
-            normal = facing.reshape(-1, 3)[cells].sum(axis=1)
-            within = self._phase_error(rotation, u, e1, e2, g, *centre, depth,
-                                       _unit(normal)) <= s.max_patch_phase
+            cell_normals = facing.reshape(-1, 3)[cells]  # (K, size^2, 3)
+            normal = _unit(cell_normals.sum(axis=1))
+            cos = np.clip(_rows_dot(cell_normals, normal[:, None]).min(axis=1, initial=1.0),
+                          -1.0, 1.0)
+            within = self._phase_error(rotation, u, e1, e2, g, *centre, depth, normal,
+                                       np.arccos(cos)) <= s.max_patch_phase
             if np.any(within):
                 covered[cells[within].ravel()] = True
                 chosen.append((*(x[within] for x in centre), g[within], cells[within],
@@ -369,8 +372,7 @@ class RayCaster:
             grid: (a, b, wa, wb, inside), each (G, n_a, n_b): cell centres and widths in the
                 tangent plane, and the cells traced.
             refinable: (G, n_a, n_b) cells that may be split at silhouettes (or None).
-            dense: (G, n_a, n_b) cells split whatever they hit (or None); when merging, only
-                those whose patch misses the criterion.
+            dense: (G, n_a, n_b) cells split whatever they hit (or None).
         Returns:
             The rays kept (each grid's cells in grid order, then its sub-rays and merged rays),
             as arrays over rays: tangent offsets a, b and widths wa, wb, directions d (sensor
@@ -396,11 +398,6 @@ class RayCaster:
         if m > 1 and s.model == "physical":
             if dense is not None:
                 split = (dense & inside).ravel()
-                if self._merging():  # dense only where the criterion asks
-                    rows = np.flatnonzero(split & hit)
-                    split[rows] = self._phase_error(
-                        rotation, u, e1, e2, beam[rows], a[rows], b[rows], wa[rows], wb[rows],
-                        t[rows], n_w[rows]) > s.max_patch_phase
             # The refinement's mask, where it can still split a cell.
             if refinable is not None and np.any(refinable.ravel() & inside.ravel() & ~split):
                 split |= (self._refine_mask(inside, t.reshape(shape), n_w.reshape(shape + (3,)),

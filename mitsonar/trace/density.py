@@ -11,9 +11,12 @@ linear term 2 (d . delta) that the model evaluates at the carrier's wavenumber k
 (k - k_c) 2 (d . delta) at another frequency of the band. The patch's phase error is the
 largest over its corners at the band's top frequency (wavenumber k_top):
 
-    phi = k_top t |dd1 +- dd2|^2 / 4 + (k_top - k_c) |d . (E1 +- E2)|,
+    phi = k_top t |dd1 +- dd2|^2 / 4 + (k_top - k_c) |d . (E1 +- E2)| + k_top |E1 +- E2| alpha,
 
-E1, E2 the patch's edges (:func:`patch_phase_error`). A patch with phi <= ``max_patch_phase``
+E1, E2 the patch's edges (:func:`patch_phase_error`); the last term is a curved surface's own
+departure from the patch's plane (two-way, its sagitta |delta| alpha_c / 2 at a corner whose
+normal is alpha_c from the centre's, taken as twice the largest angle alpha between the merged
+cells' normals and their mean). A patch with phi <= ``max_patch_phase``
 (default pi / 8, the Fraunhofer criterion's quarter of the 2 D^2 / lambda far-field phase) is
 as good as the finer patches it replaces. At normal incidence the allowed angular cell width
 grows as 1 / sqrt(range): near surfaces need far fewer patches than the fixed grid gives them
@@ -44,20 +47,25 @@ def _rows_dot(a, b):
     return np.sum(a * b, axis=-1)
 
 
-def patch_phase_error(t, d, normals, dd1, dd2, k_top: float, k_centre: float) -> np.ndarray:
+def patch_phase_error(t, d, normals, dd1, dd2, k_top: float, k_centre: float,
+                      normal_spread=0.0) -> np.ndarray:
     """(H,) phase error [rad] of the patch model at the corners of patches of range ``t`` (H,)
-    [m], unit ray directions ``d`` (H, 3), surface ``normals`` (H, 3) and ray differentials
-    ``dd1``, ``dd2`` (H, 3) (see the module docstring), at wavenumbers ``k_top`` (the band's top
-    frequency) and ``k_centre`` (the carrier) [rad/m]. Infinite at grazing incidence."""
-    dn = np.abs(_rows_dot(d, normals))
+    [m], unit ray directions ``d`` (H, 3), surface ``normals`` (H, 3), ray differentials
+    ``dd1``, ``dd2`` (H, 3) and ``normal_spread`` (H,) [rad] (largest angle of the surface's
+    normal within the patch to the patch's; 0 for a plane), at wavenumbers ``k_top`` (the
+    band's top frequency) and ``k_centre`` (the carrier) [rad/m] (see the module docstring).
+    Infinite at grazing incidence."""
+    dn = _rows_dot(d, normals)
     with np.errstate(divide="ignore", invalid="ignore"):
-        along = [np.where(dn > 0, t * _rows_dot(dd, normals) / dn, np.inf) for dd in (dd1, dd2)]
+        edges = [t[:, None] * (dd - d * np.where(dn != 0, _rows_dot(dd, normals) / dn,
+                                                 np.inf)[:, None]) for dd in (dd1, dd2)]
     errors = []
     for sign in (1.0, -1.0):  # the two diagonals: corners (+-1, +-1) / 2 and (+-1, -+1) / 2
-        across = dd1 + sign * dd2
+        across, diagonal = dd1 + sign * dd2, edges[0] + sign * edges[1]
         errors.append(k_top * t * _rows_dot(across, across) / 4
-                      + (k_top - k_centre) * np.abs(along[0] + sign * along[1]))
-    return np.maximum(*errors)
+                      + (k_top - k_centre) * np.abs(_rows_dot(d, diagonal))
+                      + k_top * np.sqrt(_rows_dot(diagonal, diagonal)) * normal_spread)
+    return np.nan_to_num(np.maximum(*errors), nan=np.inf)
 
 
 def block_sizes(max_merge: int) -> list[tuple[int, int]]:

@@ -98,9 +98,9 @@ class TraceSettings:
             main lobe, 0.43-0.6 deg within 4 deg of its axis).
         max_merge: largest block of max_merge x max_merge neighbouring cells (a power of 2) merged
             into one patch where the patch criterion allows (:mod:`mitsonar.trace.density`:
-            ray density that follows range and footprint); 1 keeps the fixed grid. Where
-            merging, the dense cells of a shared trace are split only where the criterion
-            asks.
+            ray density that follows range and footprint); 1 (the default) keeps the fixed
+            grid. Opt-in: merged patches carry fewer diffuse phases, a different speckle
+            realisation of rough surfaces, which moves side-lobe decisions on diffuse walls.
         max_patch_phase: the patch criterion: the largest phase error of the patch model at a
             patch's corners at the band's top frequency [rad].
     """
@@ -124,7 +124,7 @@ class TraceSettings:
     ray_density: str = "beam"
     transmit_weights: tuple | None = None
     shared_ray_step: float = np.radians(2.0)
-    max_merge: int = 4
+    max_merge: int = 1
     max_patch_phase: float = np.pi / 8
 
     def __post_init__(self):
