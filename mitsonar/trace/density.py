@@ -56,16 +56,16 @@ def patch_phase_error(t, d, normals, dd1, dd2, k_top: float, k_centre: float,
     band's top frequency) and ``k_centre`` (the carrier) [rad/m] (see the module docstring).
     Infinite at grazing incidence."""
     dn = _rows_dot(d, normals)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        edges = [t[:, None] * (dd - d * np.where(dn != 0, _rows_dot(dd, normals) / dn,
-                                                 np.inf)[:, None]) for dd in (dd1, dd2)]
+    grazing = np.abs(dn) < 1e-9
+    dn = np.where(grazing, 1.0, dn)
+    edges = [t[:, None] * (dd - d * (_rows_dot(dd, normals) / dn)[:, None]) for dd in (dd1, dd2)]
     errors = []
     for sign in (1.0, -1.0):  # the two diagonals: corners (+-1, +-1) / 2 and (+-1, -+1) / 2
         across, diagonal = dd1 + sign * dd2, edges[0] + sign * edges[1]
         errors.append(k_top * t * _rows_dot(across, across) / 4
                       + (k_top - k_centre) * np.abs(_rows_dot(d, diagonal))
                       + k_top * np.sqrt(_rows_dot(diagonal, diagonal)) * normal_spread)
-    return np.nan_to_num(np.maximum(*errors), nan=np.inf)
+    return np.where(grazing, np.inf, np.maximum(*errors))
 
 
 def block_sizes(max_merge: int) -> list[tuple[int, int]]:
