@@ -302,8 +302,9 @@ class RayCaster:
         normals = _rotate(rotation[beam], n_w, inverse=True)
         return patch_phase_error(t, d, normals, dd1, dd2, *self._wavenumbers[::-1], spread)
 
-    def _merged(self, rotation, translation, u, e1, e2, grid, t, n_w, shapes, free):
-        """Blocks of cells merged into one ray each (:mod:`~mitsonar.trace.density`).
+    def _merge_blocks(self, rotation, u, e1, e2, grid, t, n_w, shapes, free):
+        """Blocks of cells that one ray each may replace (:mod:`~mitsonar.trace.density`), the
+        largest first, each cell in one block at most.
 
         Args:
             grid: (a, b, wa, wb, inside), each (G, n_a, n_b), as :meth:`_cast_grid` takes it.
@@ -311,26 +312,27 @@ class RayCaster:
                 of the cells' rays.
             free: (G, n_a, n_b) cells that may be merged (inside, hit, not split).
         Returns:
-            The merged rays (a, b, wa, wb, d, |u + a e1 + b e2|, t, points, normals, material,
-            grid index), each (M, ...), and the (G x n_a x n_b,) cells they replace.
+            The blocks' rays (a, b, wa, wb, grid index), each (M,), the shape id and range [m]
+            their centre rays must find (M,), and per block size the (M_k, cells) flat indices
+            of its blocks' cells, in the order of the rays.
         """
         s = self.settings
-        n_grids, n_a, n_b = free.shape
+        n_a, n_b = free.shape[1:]
         cell = np.arange(free.size).reshape(free.shape)
         normals = n_w.reshape(-1, 3)
         flip = _rows_dot(normals, _rotate(np.repeat(rotation, n_a * n_b, axis=0),
                                           self._grid_directions(u, e1, e2, grid))) > 0
-        facing = np.where(flip[:, None], -normals, normals).reshape(n_w.shape)
+        facing = np.where(flip[:, None], -normals, normals)
         covered = np.zeros(free.size, bool)
-        chosen = []  # per block size: (block centres and widths, grid, cells, shape, range)
+        chosen = []  # per block size: block centres and widths, grid, shape, range, cells
         for size in block_sizes(s.max_merge):
-            ok = uniform_blocks(size, free & ~covered.reshape(free.shape), shapes, facing, t,
-                                s.refine_normal_angle)
+            ok = uniform_blocks(size, free & ~covered.reshape(free.shape), shapes,
+                                facing.reshape(n_w.shape), t, s.refine_normal_angle)
             g, i, j = np.nonzero(ok)
             centre = [x[g, i, j] for x in block_cells(*grid[:4], size)]
-            cells = blocks(cell, size, -1)[g, i, j]  # (K, size^2)
+            cells = blocks(cell, size, -1)[g, i, j]  # (K, cells per block)
             depth = t.ravel()[cells].max(axis=-1)
-            cell_normals = facing.reshape(-1, 3)[cells]  # (K, size^2, 3)
+            cell_normals = facing[cells]  # (K, cells per block, 3)
             normal = _unit(cell_normals.sum(axis=1))
             cos = np.clip(_rows_dot(cell_normals, normal[:, None]).min(axis=1, initial=1.0),
                           -1.0, 1.0)
@@ -338,23 +340,22 @@ class RayCaster:
                                        np.arccos(cos)) <= s.max_patch_phase
             if np.any(within):
                 covered[cells[within].ravel()] = True
-                chosen.append((*(x[within] for x in centre), g[within], cells[within],
-                               shapes.ravel()[cells[within, 0]], depth[within]))
+                chosen.append((*(x[within] for x in centre), g[within],
+                               shapes.ravel()[cells[within, 0]], depth[within], cells[within]))
         if not chosen:
-            return None, np.zeros(free.size, bool)
-        a, b, wa, wb, beam = (np.concatenate([c[k] for c in chosen]) for k in range(5))
-        d, norm_v, (t_m, p_m, n_m, mat_m, shape_m) = self._cast(
-            rotation, translation, u, e1, e2, beam, a, b)
-        # The centre ray must find the same surface at the block's depth, else the cells stay.
-        shape_ref, depth = (np.concatenate([c[k] for c in chosen]) for k in (6, 7))
-        good = (shape_m == shape_ref) & (np.abs(t_m - depth) <= DEPTH_JUMP * depth)
-        replaced = np.zeros(free.size, bool)
+            return None
+        return tuple(np.concatenate([c[k] for c in chosen]) for k in range(7)), \
+            [c[7] for c in chosen]
+
+    @staticmethod
+    def _replaced(blocks_cells, good, n_cells: int) -> np.ndarray:
+        """(n_cells,) cells replaced by the blocks whose centre ray is ``good`` (M,)."""
+        replaced = np.zeros(n_cells, bool)
         start = 0
-        for c in chosen:  # per block size (a few)
-            replaced[c[5][good[start:start + len(c[5])]].ravel()] = True
-            start += len(c[5])
-        return tuple(x[good] for x in (a, b, wa, wb, d, norm_v, t_m, p_m, n_m, mat_m, beam)), \
-            replaced
+        for cells in blocks_cells:  # per block size (a few)
+            replaced[cells[good[start:start + len(cells)]].ravel()] = True
+            start += len(cells)
+        return replaced
 
     @staticmethod
     def _grid_directions(u, e1, e2, grid):
@@ -393,8 +394,6 @@ class RayCaster:
             self._cast(rotation, translation, u, e1, e2, beam[keep], a[keep], b[keep])
         m = s.refine
         split = np.zeros(len(a), bool)
-        extra = []  # rays added: sub-rays, merged rays
-        hit = np.isfinite(t) & (mats >= 0)
         if m > 1 and s.model == "physical":
             if dense is not None:
                 split = (dense & inside).ravel()
@@ -402,32 +401,42 @@ class RayCaster:
             if refinable is not None and np.any(refinable.ravel() & inside.ravel() & ~split):
                 split |= (self._refine_mask(inside, t.reshape(shape), n_w.reshape(shape + (3,)),
                                             shapes.reshape(shape)) & refinable).ravel()
-            if np.any(split):
-                frac = (np.arange(m) + 0.5) / m - 0.5
-                fa, fb = np.meshgrid(frac, frac, indexing="ij")
-                ca = (a[split, None] + fa.ravel()[None] * wa[split, None]).ravel()
-                cb = (b[split, None] + fb.ravel()[None] * wb[split, None]).ravel()
-                cwa = np.repeat(wa[split] / m, m * m)
-                cwb = np.repeat(wb[split] / m, m * m)
-                cbeam = np.repeat(beam[split], m * m)
-                cd, cnorm, (ct, cp, cn, cmat, _) = self._cast(rotation, translation, u, e1, e2,
-                                                              cbeam, ca, cb)
-                extra.append((ca, cb, cwa, cwb, cd, cnorm, ct, cp, cn, cmat, cbeam))
         keep &= ~split
+        # New rays, cast together: sub-rays of the split cells, then the merged blocks' rays.
+        frac = (np.arange(m) + 0.5) / m - 0.5
+        fa, fb = (x.ravel() for x in np.meshgrid(frac, frac, indexing="ij"))
+        new = [(a[split, None] + fa[None] * wa[split, None]).ravel(),
+               (b[split, None] + fb[None] * wb[split, None]).ravel(),
+               np.repeat(wa[split] / m, m * m), np.repeat(wb[split] / m, m * m),
+               np.repeat(beam[split], m * m)]
+        n_sub = len(new[0])
+        merged = None
         if self._merging():
-            merged, replaced = self._merged(
-                rotation, translation, u, e1, e2, grid, t.reshape(shape),
-                n_w.reshape(shape + (3,)), shapes.reshape(shape), (keep & hit).reshape(shape))
+            hit = np.isfinite(t) & (mats >= 0)
+            merged = self._merge_blocks(rotation, u, e1, e2, grid, t.reshape(shape),
+                                        n_w.reshape(shape + (3,)), shapes.reshape(shape),
+                                        (keep & hit).reshape(shape))
             if merged is not None:
-                keep &= ~replaced
-                extra.append(merged)
+                new = [np.concatenate([x, y]) for x, y in zip(new, merged[0][:5])]
+        extra = None
+        if len(new[0]):
+            cd, cnorm, (ct, cp, cn, cmat, cshape) = self._cast(rotation, translation, u, e1, e2,
+                                                               new[4], new[0], new[1])
+            extra = (*new[:4], cd, cnorm, ct, cp, cn, cmat, new[4])
+            if merged is not None:
+                # A block's centre ray must find its cells' surface at their depth, else the
+                # cells stay as they are.
+                shape_ref, depth = merged[0][5:]
+                good = (cshape[n_sub:] == shape_ref) \
+                    & (np.abs(ct[n_sub:] - depth) <= DEPTH_JUMP * depth)
+                keep &= ~self._replaced(merged[1], good, len(a))
+                rows = np.concatenate([np.ones(n_sub, bool), good])
+                extra = tuple(x[rows] for x in extra)
         rays = (a, b, wa, wb, d, norm_v, t, p_w, n_w, mats, beam)
-        if extra:
+        if extra is not None:
             # Per grid: its kept rays in grid order, then its sub-rays and merged rays.
-            order = np.argsort(np.concatenate([beam[keep]] + [x[-1] for x in extra]),
-                               kind="stable")
-            rays_kept = tuple(np.concatenate([x[keep]] + [y[k] for y in extra])[order]
-                              for k, x in enumerate(rays))
+            order = np.argsort(np.concatenate([beam[keep], extra[-1]]), kind="stable")
+            rays_kept = tuple(np.concatenate([x[keep], y])[order] for x, y in zip(rays, extra))
         else:
             rays_kept = tuple(x[keep] for x in rays)
         return rays_kept, np.bincount(rays_kept[-1], minlength=shape[0])
