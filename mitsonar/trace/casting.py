@@ -348,14 +348,17 @@ class RayCaster:
             [c[7] for c in chosen]
 
     @staticmethod
-    def _replaced(blocks_cells, good, n_cells: int) -> np.ndarray:
-        """(n_cells,) cells replaced by the blocks whose centre ray is ``good`` (M,)."""
-        replaced = np.zeros(n_cells, bool)
+    def _owners(blocks_cells, good, n_cells: int) -> np.ndarray:
+        """(n_cells,) index among the ``good`` (M,) blocks of the block that replaces each cell
+        (-1: none)."""
+        owner = np.full(n_cells, -1)
+        rank = np.cumsum(good) - 1
         start = 0
         for cells in blocks_cells:  # per block size (a few)
-            replaced[cells[good[start:start + len(cells)]].ravel()] = True
+            rows = np.flatnonzero(good[start:start + len(cells)])
+            owner[cells[rows]] = rank[start + rows][:, None]
             start += len(cells)
-        return replaced
+        return owner
 
     @staticmethod
     def _grid_directions(u, e1, e2, grid):
@@ -378,7 +381,10 @@ class RayCaster:
             The rays kept (each grid's cells in grid order, then its sub-rays and merged rays),
             as arrays over rays: tangent offsets a, b and widths wa, wb, directions d (sensor
             frame), |u + a e1 + b e2|, t (inf: miss), world hit points and normals, material
-            index, and grid index; and the ray count per grid (G,).
+            index, and grid index; the ray count per grid (G,); and None, or where blocks were
+            merged, the rays of the fixed grid (in the same order as without merging): grid
+            index, t, material, cell width product wa wb, and the index of the kept ray that
+            stands for each (itself, or its block's).
         """
         s = self.settings
         inside = grid[4]
@@ -402,6 +408,7 @@ class RayCaster:
                 split |= (self._refine_mask(inside, t.reshape(shape), n_w.reshape(shape + (3,)),
                                             shapes.reshape(shape)) & refinable).ravel()
         keep &= ~split
+        fixed = keep.copy()  # the fixed grid's cells
         # New rays, cast together: sub-rays of the split cells, then the merged blocks' rays.
         frac = (np.arange(m) + 0.5) / m - 0.5
         fa, fb = (x.ravel() for x in np.meshgrid(frac, frac, indexing="ij"))
@@ -418,7 +425,7 @@ class RayCaster:
                                         (keep & hit).reshape(shape))
             if merged is not None:
                 new = [np.concatenate([x, y]) for x, y in zip(new, merged[0][:5])]
-        extra = None
+        extra, owner = None, None
         if len(new[0]):
             cd, cnorm, (ct, cp, cn, cmat, cshape) = self._cast(rotation, translation, u, e1, e2,
                                                                new[4], new[0], new[1])
@@ -429,14 +436,28 @@ class RayCaster:
                 shape_ref, depth = merged[0][5:]
                 good = (cshape[n_sub:] == shape_ref) \
                     & (np.abs(ct[n_sub:] - depth) <= DEPTH_JUMP * depth)
-                keep &= ~self._replaced(merged[1], good, len(a))
+                owner = self._owners(merged[1], good, len(a))
+                keep &= owner < 0
                 rows = np.concatenate([np.ones(n_sub, bool), good])
                 extra = tuple(x[rows] for x in extra)
         rays = (a, b, wa, wb, d, norm_v, t, p_w, n_w, mats, beam)
-        if extra is not None:
-            # Per grid: its kept rays in grid order, then its sub-rays and merged rays.
-            order = np.argsort(np.concatenate([beam[keep], extra[-1]]), kind="stable")
-            rays_kept = tuple(np.concatenate([x[keep], y])[order] for x, y in zip(rays, extra))
-        else:
+        if extra is None:
             rays_kept = tuple(x[keep] for x in rays)
-        return rays_kept, np.bincount(rays_kept[-1], minlength=shape[0])
+            return rays_kept, np.bincount(rays_kept[-1], minlength=shape[0]), None
+        # Per grid: its kept rays in grid order, then its sub-rays and merged rays.
+        kept = np.concatenate([np.flatnonzero(keep), len(a) + np.arange(len(extra[0]))])
+        order = np.argsort(np.concatenate([beam[keep], extra[-1]]), kind="stable")
+        rays_kept = tuple(np.concatenate([x[keep], y])[order] for x, y in zip(rays, extra))
+        counts = np.bincount(rays_kept[-1], minlength=shape[0])
+        if owner is None or not np.any(owner >= 0):
+            return rays_kept, counts, None
+        # The fixed grid's rays (cells before merging, then sub-rays) and the kept ray that
+        # stands for each: itself, or the block that replaced it.
+        position = np.empty(len(a) + len(extra[0]), int)
+        position[kept[order]] = np.arange(len(order))
+        stands = np.where(owner >= 0, len(a) + n_sub + owner, np.arange(len(a)))
+        pairs = ((beam, extra[-1]), (t, extra[6]), (mats, extra[9]), (wa * wb, extra[2] * extra[3]))
+        attributes = [np.concatenate([x[fixed], y[:n_sub]]) for x, y in pairs]
+        stand = np.concatenate([stands[fixed], len(a) + np.arange(n_sub)])
+        by_grid = np.argsort(attributes[0], kind="stable")
+        return rays_kept, counts, (*(x[by_grid] for x in attributes), position[stand[by_grid]])

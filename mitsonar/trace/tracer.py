@@ -341,7 +341,7 @@ class AcousticTracer(RayCaster):
         e1, e2 = np.array([e for e, _ in basis]), np.array([e for _, e in basis])
         grids = (n_beams,) + self._grid[0].shape
         refinable = None if s.model == "paper" else np.broadcast_to(self._refinable, grids)
-        (a, b, wa, wb, d, norm_v, t, p_w, n_w, mats, beam), ray_count = self._cast_grid(
+        (a, b, wa, wb, d, norm_v, t, p_w, n_w, mats, beam), ray_count, fixed = self._cast_grid(
             rotation, translation, u, e1, e2,
             tuple(np.broadcast_to(x, grids) for x in self._grid), refinable)
         hit = np.isfinite(t) & (mats >= 0)
@@ -359,7 +359,7 @@ class AcousticTracer(RayCaster):
         rngs = [np.random.default_rng(seed) for seed in seeds]
         edges = self._patch_edges(d_h, n, dd1, dd2, t[hit])
         parts = [(hb, self._scatter(x, n, mats_h, edges, None, steering, taper.astype(complex),
-                                    visible, self._roughness(mats_h, hb, rngs)))]
+                                    visible, self._hit_roughness(fixed, hit, mats_h, hb, rngs)))]
         if s.max_bounces == 2 and s.model == "physical":
             parts += self._second_bounce(rotation, translation, hb, x, n, mats_h, d_h, dd1, dd2,
                                          t[hit], taper, steering, rngs)
@@ -398,7 +398,7 @@ class AcousticTracer(RayCaster):
         u = _unit(np.asarray(directions, dtype=float).reshape(-1, 3))
         u0, e1, e2, grid, refinable = self._union_grid(u, self.settings.shared_ray_step)
         rotation, translation = sensor_pose.rotation, sensor_pose.translation
-        (a, b, wa, wb, d, norm_v, t, p_w, n_w, mats, _), ray_count = self._cast_grid(
+        (a, b, wa, wb, d, norm_v, t, p_w, n_w, mats, _), ray_count, fixed = self._cast_grid(
             rotation[None], translation[None], u0[None], e1[None], e2[None], grid, refinable,
             dense=refinable)
         hit = np.isfinite(t) & (mats >= 0)
@@ -409,8 +409,8 @@ class AcousticTracer(RayCaster):
         n = _unit(n_w[hit])
         n = np.where(_rows_dot(d_w, n)[:, None] > 0, -n, n)  # face the incoming ray
         edges = self._patch_edges(d_w, n, world(dd1), world(dd2), t[hit])
-        roughness = self._roughness(mats_h, np.zeros(len(mats_h), int),
-                                    [np.random.default_rng(seed)])
+        roughness = self._hit_roughness(fixed, hit, mats_h, np.zeros(len(mats_h), int),
+                                        [np.random.default_rng(seed)])
         return HitPatches(p_w[hit], n, edges, mats_h, self._union_weight(d_h @ u.T), roughness,
                           sensor_pose, int(ray_count[0]))
 
@@ -450,6 +450,23 @@ class AcousticTracer(RayCaster):
             if np.any(diffuse[rows]):
                 out[rows] = np.exp(2j * np.pi * rng.uniform(0.0, 1.0, bounds[k + 1] - bounds[k]))
         return out
+
+    def _hit_roughness(self, fixed, hit, mats, beam, rngs) -> np.ndarray:
+        """(H,) diffuse phasors of the hits ``hit`` (mask over the traced rays; materials
+        ``mats`` and beams ``beam`` (H,)): :meth:`_roughness`, or where blocks of cells were
+        merged (``fixed``, from :meth:`_cast_grid`), drawn for the fixed grid's hits as without
+        merging and summed per block with amplitudes sqrt(wa wb / their sum): the coherent sum
+        of the block's scatterers, the same speckle realisation."""
+        if fixed is None:
+            return self._roughness(mats, beam, rngs)
+        grid, t, materials, area, stands = fixed
+        on = np.isfinite(t) & (materials >= 0)
+        phasor = self._roughness(materials[on], grid[on], rngs)
+        stands, area = stands[on], area[on]
+        amplitude = np.sqrt(area / np.bincount(stands, weights=area, minlength=len(hit))[stands])
+        total = (np.bincount(stands, weights=amplitude * phasor.real, minlength=len(hit))
+                 + 1j * np.bincount(stands, weights=amplitude * phasor.imag, minlength=len(hit)))
+        return total[hit]
 
     def _second_bounce(self, rotation, translation, beam, x1, n1, mats1, d1, dd1, dd2, t1, taper,
                        steering, rngs) -> list[tuple[np.ndarray, HitPaths]]:
