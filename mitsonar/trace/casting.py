@@ -20,8 +20,8 @@ from mitsonar.jit import backend, to_jit
 from mitsonar.physics.array import ArrayGeometry
 from mitsonar.scene.loading import AcousticScene, mitsuba
 from mitsonar.scene.rays import rays
-from mitsonar.trace.density import (DEPTH_JUMP, block_cells, block_sizes, blocks,
-                                    patch_phase_error, uniform_blocks)
+from mitsonar.trace.density import (DEPTH_JUMP, block_cells, block_sizes, blocks, continuous,
+                                    patch_phase_error)
 
 #: Offset of secondary ray origins from a surface [m].
 _EPS = 1e-4
@@ -323,25 +323,22 @@ class RayCaster:
         flip = _rows_dot(normals, _rotate(np.repeat(rotation, n_a * n_b, axis=0),
                                           self._grid_directions(u, e1, e2, grid))) > 0
         facing = np.where(flip[:, None], -normals, normals)
+        flat = [x.ravel() for x in (*grid[:4], shapes, t)]
         covered = np.zeros(free.size, bool)
         chosen = []  # per block size: block centres and widths, grid, shape, range, cells
-        for size in block_sizes(s.max_merge):
-            ok = uniform_blocks(size, free & ~covered.reshape(free.shape), shapes,
-                                facing.reshape(n_w.shape), t, s.refine_normal_angle)
-            g, i, j = np.nonzero(ok)
-            centre = [x[g, i, j] for x in block_cells(*grid[:4], size)]
-            cells = blocks(cell, size, -1)[g, i, j]  # (K, cells per block)
-            depth = t.ravel()[cells].max(axis=-1)
-            cell_normals = facing[cells]  # (K, cells per block, 3)
-            normal = _unit(cell_normals.sum(axis=1))
-            cos = np.clip(_rows_dot(cell_normals, normal[:, None]).min(axis=1, initial=1.0),
-                          -1.0, 1.0)
-            within = self._phase_error(rotation, u, e1, e2, g, *centre, depth, normal,
-                                       np.arccos(cos)) <= s.max_patch_phase
-            if np.any(within):
-                covered[cells[within].ravel()] = True
-                chosen.append((*(x[within] for x in centre), g[within],
-                               shapes.ravel()[cells[within, 0]], depth[within], cells[within]))
+        for size in block_sizes(s.max_merge):  # a few shapes, largest first
+            whole = blocks(free & ~covered.reshape(free.shape), size, False).all(axis=-1)
+            cells = blocks(cell, size, -1)[whole]  # (K, cells per block), all free
+            ok, normal, spread, depth = continuous(cells, flat[4], facing, flat[5],
+                                                   s.refine_normal_angle)
+            cells, g = cells[ok], cells[ok, 0] // (n_a * n_b)
+            centre = block_cells(*flat[:4], cells)
+            take = self._phase_error(rotation, u, e1, e2, g, *centre, depth[ok], normal[ok],
+                                     spread[ok]) <= s.max_patch_phase
+            if np.any(take):
+                covered[cells[take].ravel()] = True
+                chosen.append((*(x[take] for x in centre), g[take], flat[4][cells[take, 0]],
+                               depth[ok][take], cells[take]))
         if not chosen:
             return None
         return tuple(np.concatenate([c[k] for c in chosen]) for k in range(7)), \

@@ -89,30 +89,27 @@ def blocks(x: np.ndarray, size: tuple[int, int], fill) -> np.ndarray:
     return np.moveaxis(x, 2, 3).reshape((g, n_a, n_b, p * q) + x.shape[5:])
 
 
-def uniform_blocks(size: tuple[int, int], free, shape, normals, t,
-                   normal_angle: float) -> np.ndarray:
-    """(G, N_a, N_b) blocks of ``size`` cells (:func:`blocks`) that lie on one continuous
-    surface: every cell ``free`` (inside, hit, not split; (G, n_a, n_b)), the same ``shape`` id,
-    unit ``normals`` (G, n_a, n_b, 3) (facing the rays) within ``normal_angle`` [rad] of each
-    other and ranges ``t`` [m] within :data:`DEPTH_JUMP` of each other."""
-    ok = blocks(free, size, False).all(axis=-1)
-    ids = blocks(shape, size, -1)
-    ok &= ids.min(axis=-1) == ids.max(axis=-1)
-    n = blocks(normals, size, 0.0)
-    mean = n.sum(axis=-2)
-    mean /= np.maximum(np.sqrt(_rows_dot(mean, mean)), 1e-30)[..., None]
-    ok &= (_rows_dot(n, mean[..., None, :]) >= np.cos(0.5 * normal_angle)).all(axis=-1)
-    depth = blocks(np.where(free, t, 0.0), size, 0.0)
-    ok &= depth.max(axis=-1) - depth.min(axis=-1) <= DEPTH_JUMP * depth.max(axis=-1)
-    return ok
+def continuous(cells, shape, normals, t, normal_angle: float):
+    """Which blocks of ``cells`` (K, n) (flat cell indices) lie on one continuous surface: the
+    same ``shape`` id, unit ``normals`` (facing the rays) within ``normal_angle`` [rad] of each
+    other, ranges ``t`` [m] within :data:`DEPTH_JUMP` of each other (``shape``, ``normals``,
+    ``t``: flat over the cells). Returns the mask (K,), the blocks' unit mean normals (K, 3),
+    the largest angle of a cell's normal to the mean [rad] (K,) and the largest range (K,)."""
+    ids, depth, n = shape[cells], t[cells], normals[cells]
+    mean = n.sum(axis=1)
+    mean /= np.maximum(np.sqrt(_rows_dot(mean, mean)), 1e-30)[:, None]
+    cos = np.clip(_rows_dot(n, mean[:, None]).min(axis=1), -1.0, 1.0)
+    far = depth.max(axis=1)
+    ok = (ids.min(axis=1) == ids.max(axis=1)) & (cos >= np.cos(0.5 * normal_angle)) \
+        & (far - depth.min(axis=1) <= DEPTH_JUMP * far)
+    return ok, mean, np.arccos(cos), far
 
 
-def block_cells(a, b, wa, wb, size: tuple[int, int]):
-    """Tangent-plane centre and widths (a, b, wa, wb) of blocks of ``size`` cells of centres a,
-    b and widths wa, wb (each (G, n_a, n_b)), each (G, N_a, N_b) (padding cells lie at the
-    grid's first cell: their blocks are never merged)."""
-    low_a, high_a = (blocks(a + s * wa / 2, size, a[0, 0, 0]) for s in (-1, 1))
-    low_b, high_b = (blocks(b + s * wb / 2, size, b[0, 0, 0]) for s in (-1, 1))
+def block_cells(a, b, wa, wb, cells):
+    """Tangent-plane centre and widths (a, b, wa, wb) (K,) of blocks of ``cells`` (K, n) (flat
+    indices into the cells' centres a, b and widths wa, wb)."""
+    low_a, high_a = (a[cells] + s * wa[cells] / 2 for s in (-1, 1))
+    low_b, high_b = (b[cells] + s * wb[cells] / 2 for s in (-1, 1))
     low_a, low_b = low_a.min(axis=-1), low_b.min(axis=-1)
     high_a, high_b = high_a.max(axis=-1), high_b.max(axis=-1)
     return 0.5 * (low_a + high_a), 0.5 * (low_b + high_b), high_a - low_a, high_b - low_b
