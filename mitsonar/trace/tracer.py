@@ -358,8 +358,9 @@ class AcousticTracer(RayCaster):
         steering = g.steering_delays(u, self.c)[hb]  # (H, N_tx)
         rngs = [np.random.default_rng(seed) for seed in seeds]
         edges = self._patch_edges(d_h, n, dd1, dd2, t[hit])
+        roughness = self._hit_roughness(fixed, t, hit, mats_h, hb, rngs)
         parts = [(hb, self._scatter(x, n, mats_h, edges, None, steering, taper.astype(complex),
-                                    visible, self._hit_roughness(fixed, hit, mats_h, hb, rngs)))]
+                                    visible, roughness))]
         if s.max_bounces == 2 and s.model == "physical":
             parts += self._second_bounce(rotation, translation, hb, x, n, mats_h, d_h, dd1, dd2,
                                          t[hit], taper, steering, rngs)
@@ -409,7 +410,7 @@ class AcousticTracer(RayCaster):
         n = _unit(n_w[hit])
         n = np.where(_rows_dot(d_w, n)[:, None] > 0, -n, n)  # face the incoming ray
         edges = self._patch_edges(d_w, n, world(dd1), world(dd2), t[hit])
-        roughness = self._hit_roughness(fixed, hit, mats_h, np.zeros(len(mats_h), int),
+        roughness = self._hit_roughness(fixed, t, hit, mats_h, np.zeros(len(mats_h), int),
                                         [np.random.default_rng(seed)])
         return HitPatches(p_w[hit], n, edges, mats_h, self._union_weight(d_h @ u.T), roughness,
                           sensor_pose, int(ray_count[0]))
@@ -451,18 +452,20 @@ class AcousticTracer(RayCaster):
                 out[rows] = np.exp(2j * np.pi * rng.uniform(0.0, 1.0, bounds[k + 1] - bounds[k]))
         return out
 
-    def _hit_roughness(self, fixed, hit, mats, beam, rngs) -> np.ndarray:
-        """(H,) diffuse phasors of the hits ``hit`` (mask over the traced rays; materials
-        ``mats`` and beams ``beam`` (H,)): :meth:`_roughness`, or where blocks of cells were
-        merged (``fixed``, from :meth:`_cast_grid`), drawn for the fixed grid's hits as without
-        merging and summed per block with amplitudes sqrt(wa wb / their sum): the coherent sum
-        of the block's scatterers, the same speckle realisation."""
+    def _hit_roughness(self, fixed, t, hit, mats, beam, rngs) -> np.ndarray:
+        """(H,) diffuse phasors of the hits ``hit`` (mask over the traced rays, of ranges ``t``
+        [m]; materials ``mats`` and beams ``beam`` (H,)): :meth:`_roughness`, or where blocks of
+        cells were merged (``fixed``, from :meth:`_cast_grid`), drawn for the fixed grid's hits
+        as without merging and summed per block with amplitudes sqrt(wa wb / their sum) and the
+        carrier phases of their two-way ranges to the block's centre: the coherent sum of the
+        block's scatterers, the same speckle realisation."""
         if fixed is None:
             return self._roughness(mats, beam, rngs)
-        grid, t, materials, area, stands = fixed
-        on = np.isfinite(t) & (materials >= 0)
-        phasor = self._roughness(materials[on], grid[on], rngs)
+        grid, t_cells, materials, area, stands = fixed
+        on = np.isfinite(t_cells) & (materials >= 0)
         stands, area = stands[on], area[on]
+        phasor = self._roughness(materials[on], grid[on], rngs) \
+            * np.exp(-2j * self.k * (t_cells[on] - t[stands]))
         amplitude = np.sqrt(area / np.bincount(stands, weights=area, minlength=len(hit))[stands])
         total = (np.bincount(stands, weights=amplitude * phasor.real, minlength=len(hit))
                  + 1j * np.bincount(stands, weights=amplitude * phasor.imag, minlength=len(hit)))
