@@ -2,9 +2,9 @@
 automatic choice that models no more than the scene needs.
 
 Knobs: the ray grid (``rays_per_axis``), sub-ray refinement at silhouettes and curved surfaces
-(``refine``; patches merged where range and footprint allow, ``max_merge``, is kept as the base
-configuration sets it, and the reference level traces the fixed grid), visibility of every receive element (``shadow_rays``), specular multipath
-(``max_bounces``), the recording's sample rate, complex baseband recordings and the spectral
+(``refine``; patches merged where range and footprint allow, ``max_merge``, are kept as the
+base configuration sets them, and the reference level traces the fixed grid), visibility of
+every receive element (``shadow_rays``), specular multipath (``max_bounces``), the recording's sample rate, complex baseband recordings and the spectral
 floor of their band (``baseband``, ``band_floor``), merging of the transmit elements for
 narrow-band signals (``narrowband_bandwidth``, see :class:`~mitsonar.sensors.sonar.SonarConfig`), and the
 camera's samples per pixel. Presets, cheapest first:
