@@ -137,3 +137,19 @@ def test_arrival_bounds_are_computed_once_and_follow_selection(scene_file):
     assert "arrivals" in chosen.__dict__  # carried over, not recomputed
     np.testing.assert_array_equal(chosen.arrivals[0], earliest[rows])
     np.testing.assert_array_equal(chosen.arrivals[1], latest[rows])
+
+
+def test_merged_blocks_keep_the_speckle_of_a_near_rough_wall(scene_file):
+    """A concrete wall (scattering 0.1) 0.7 m ahead, 35 beams over the field of view: merged
+    blocks sum their cells' diffuse phasors (with their carrier phases to the block's centre),
+    so the diffuse echoes stay the fixed grid's realisation: at least 32 of 35 decisions the
+    same and amplitudes within 1 dB (median) where both detect (measured 33/35, 0.45 dB;
+    another diffuse seed on the fixed grid: 15/35, 1.5 dB)."""
+    path = scene_file("rough", material_xml("w", preset="concrete"),
+                      rectangle_xml("w", (0, 0, 0.7), size=(20, 20)))
+    fixed, merged = (mitsonar.Sonar(path, config) for config in (FIXED, _merged(QUIET)))
+    directions = fixed.fov_grid(np.radians(10.0))
+    ours, theirs = (s.scan(IDENTITY, directions) for s in (merged, fixed))
+    assert np.sum(ours.detected == theirs.detected) >= 32
+    both = ours.detected & theirs.detected
+    assert np.median(np.abs(20 * np.log10(ours.amplitude[both] / theirs.amplitude[both]))) <= 1.0
