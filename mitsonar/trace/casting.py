@@ -286,8 +286,8 @@ class RayCaster:
 
 
     def _merging(self) -> bool:
-        """Whether cells are merged where the patch criterion allows (and split only where it
-        asks): the physical model with a merge size above 1 and known wavenumbers."""
+        """Whether cells are merged where the patch criterion allows: the physical model with a
+        merge size above 1 and known wavenumbers."""
         s = self.settings
         return s.model == "physical" and s.max_merge > 1 and self._wavenumbers is not None
 

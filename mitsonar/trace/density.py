@@ -17,20 +17,23 @@ E1, E2 the patch's edges (:func:`patch_phase_error`); the last term is a curved 
 departure from the patch's plane (two-way, its sagitta |delta| alpha_c / 2 at a corner whose
 normal is alpha_c from the centre's, taken as twice the largest angle alpha between the merged
 cells' normals and their mean). A patch with phi <= ``max_patch_phase``
-(default pi / 8, the Fraunhofer criterion's quarter of the 2 D^2 / lambda far-field phase) is
+(default pi / 8, the phase error at Fraunhofer's far-field distance 2 D^2 / lambda) is
 as good as the finer patches it replaces. At normal incidence the allowed angular cell width
 grows as 1 / sqrt(range): near surfaces need far fewer patches than the fixed grid gives them
 (0.5 deg cells in the main lobe are 4 mm on a wall 0.5 m away, against a criterion of ~4 cm).
 
 **Merging.** After the fixed grid is cast and refined, aligned blocks of p x q cells (p, q
 powers of 2 up to ``max_merge``, the largest first) are replaced by one ray through the block's
-centre where
-every cell of the block hit the same shape, with normals within ``refine_normal_angle`` and
-depths within 5 % of each other (the refinement's own tests of a continuous surface), none was
-split, and the block's patch meets the criterion. The largest such block wins. A block whose
-centre ray does not hit the same surface at the same depth keeps its cells. Where the fixed
-grid is coarser than the criterion asks (far surfaces outside the main lobe), it is kept as it
-is: merging never makes the grid finer than the fixed one's default.
+centre where every cell of the block hit the same shape, with normals within
+``refine_normal_angle`` and depths within 5 % of each other (the refinement's own tests of a
+continuous surface), none was split, and the block's patch meets the criterion. The largest
+such block wins. A block whose centre ray does not hit the same surface at the same depth keeps
+its cells. A merged patch's diffuse (Lambert) phasor is the coherent sum of its cells' random
+phasors, drawn as on the fixed grid, each with amplitude sqrt(its share of the block's area)
+and the carrier phase of its two-way range to the block's centre
+(``AcousticTracer._hit_roughness``): the same speckle realisation. Where the fixed grid is
+coarser than the criterion asks (far surfaces outside the main lobe), it is kept as it is:
+merging never makes the grid finer than the fixed one's default.
 """
 
 from __future__ import annotations
