@@ -99,8 +99,8 @@ class TraceSettings:
         max_merge: largest block of max_merge x max_merge neighbouring cells (a power of 2) merged
             into one patch where the patch criterion allows (:mod:`mitsonar.trace.density`:
             ray density that follows range and footprint); 1 (the default) keeps the fixed
-            grid. Opt-in: merged patches carry fewer diffuse phases, a different speckle
-            realisation of rough surfaces, which moves side-lobe decisions on diffuse walls.
+            grid. Opt-in: it moves a few borderline decisions (the merged scatterers sit at
+            their block's centre) and bought no measurable time (docs/performance.md).
         max_patch_phase: the patch criterion: the largest phase error of the patch model at a
             patch's corners at the band's top frequency [rad].
     """
