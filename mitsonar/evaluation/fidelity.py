@@ -2,8 +2,9 @@
 automatic choice that models no more than the scene needs.
 
 Knobs: the ray grid (``rays_per_axis``), sub-ray refinement at silhouettes and curved surfaces
-(``refine``), visibility of every receive element (``shadow_rays``), specular multipath
-(``max_bounces``), the recording's sample rate, complex baseband recordings and the spectral
+(``refine``; patches merged where range and footprint allow, ``max_merge``, are kept as the
+base configuration sets them, and the reference level traces the fixed grid), visibility of
+every receive element (``shadow_rays``), specular multipath (``max_bounces``), the recording's sample rate, complex baseband recordings and the spectral
 floor of their band (``baseband``, ``band_floor``), merging of the transmit elements for
 narrow-band signals (``narrowband_bandwidth``, see :class:`~mitsonar.sensors.sonar.SonarConfig`), and the
 camera's samples per pixel. Presets, cheapest first:
@@ -188,7 +189,8 @@ def choose_fidelity(scene, poses, directions, config: SonarConfig | None = None,
         poses: sample world-from-sensor poses (e.g. a few along the trajectory).
         directions: (B, 3) sample beam directions.
         config: base configuration (default: :class:`SonarConfig`'s default).
-        reference: the preset taken as converged.
+        reference: the preset taken as converged (on the fixed ray grid, whatever the
+            configuration's ``max_merge``).
         depth_tolerance: largest increase of the median distance to the true surfaces [m].
         max_flips: largest difference in the fraction of beams detected.
         seed: seeds the pings (the same at every level).
@@ -205,7 +207,11 @@ def choose_fidelity(scene, poses, directions, config: SonarConfig | None = None,
     order = list(PRESETS)
     levels = [PRESETS[name] for name in order[: order.index(fidelity(reference).name) + 1]]
     mesh = scene_mesh(scene)
-    runs = [ping_at(scene, config, level, poses, directions, seed, mesh) for level in levels]
+    # The reference traces the fixed grid: patches merged by range and footprint
+    # (TraceSettings.max_merge) are judged against it, not taken as converged.
+    fixed = replace(config, trace=replace(config.trace, max_merge=1))
+    runs = [ping_at(scene, fixed if level is levels[-1] else config, level, poses, directions,
+                    seed, mesh) for level in levels]
     for run in runs:
         if run.agrees_with(runs[-1], depth_tolerance, max_flips):
             return run.fidelity, runs

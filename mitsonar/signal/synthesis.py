@@ -239,7 +239,7 @@ class EchoSynthesizer:
         if not isinstance(paths, HitPaths):
             return list(zip(paths.narrowband_many(centres), tones))
         end = band.start_time + (band.n_samples + self.half_width) / band.sample_rate
-        late = paths.tx_delay.min(axis=1) + paths.rx_delay.min(axis=1) >= end
+        late = paths.arrivals[0] >= end
         return list(zip((paths.select(~late) if late.any() else paths).merged(centres), tones))
 
     def impulse_grid(self, paths: Paths | HitPaths, n_channels: int,
@@ -347,11 +347,11 @@ class EchoSynthesizer:
         return phasor(-2 * np.pi * (cycles - np.floor(cycles)))
 
     def _pair_grid(self, paths: HitPaths, n_channels: int, per_pair: bool = False,
-                   period: int | None = None) -> np.ndarray:
+                   period: int | None = None, by_arrival: bool = False) -> np.ndarray:
         """:meth:`impulse_grid` of factored paths by :func:`_pair_kernel`; with ``per_pair``, a
         row per element pair ((N_tx x n_channels, period), transmit element major), on a
         period of ``period`` samples (default the band's n_grid; at least its n_samples + 4 x
-        half_width)."""
+        half_width); with ``by_arrival``, the recorded patches gridded in order of arrival."""
         import drjit as dr
         Float64, Int64, UInt32 = backend().Float64, backend().Int64, backend().UInt32
 
@@ -360,10 +360,11 @@ class EchoSynthesizer:
         n_tx, n_rx = paths.elements
         if n_rx > n_channels:
             raise ValueError(f"path channel out of range 0..{n_channels - 1}")
-        earliest = (paths.tx_delay.min(axis=1) + paths.rx_delay.min(axis=1) - band.start_time) * fs
-        latest = (paths.tx_delay.max(axis=1) + paths.rx_delay.max(axis=1) - band.start_time) * fs
-        recorded = (latest > -hw) & (earliest < band.n_samples + hw)  # patches with a pair in
-        paths = paths.select(recorded)
+        earliest, latest = ((t - band.start_time) * fs for t in paths.arrivals)
+        rows = np.flatnonzero((latest > -hw) & (earliest < band.n_samples + hw))  # a pair in
+        if by_arrival:
+            rows = rows[np.argsort(earliest[rows], kind="stable")]
+        paths = paths.select(rows)
         scale = _fixed_point_scale(np.max(paths.gain_bound(), initial=0.0))
         n_rows = n_tx * n_channels if per_pair else n_channels
         period = band.n_grid if period is None else period
@@ -374,8 +375,8 @@ class EchoSynthesizer:
         tx, rx = paths.scaled(self._demodulation(tx_u), scale * self._demodulation(rx_u)) \
             .kernel_factors()
         thread = to_jit(UInt32, np.arange(rx_u.size, dtype=np.uint32))
-        origin, width = self._window(max(earliest[recorded].min(), -hw),
-                                     min(latest[recorded].max(), band.n_samples + hw))
+        origin, width = self._window(max(earliest[rows].min(), -hw),
+                                     min(latest[rows].max(), band.n_samples + hw))
         acc = _pair_kernel()(n_rows * width, thread, tx, rx, to_jit(Float64, tx_u),
                              to_jit(Float64, rx_u), n_tx, n_rx, width,
                              dr.opaque(Int64, -origin), hw, 1.0 / self.sigma**2, band.n_samples,
@@ -463,8 +464,7 @@ class EchoSynthesizer:
         # Patches in order of arrival: the kernel's threads (a block of consecutive patches per
         # core) then add into a narrow band of columns of the N_tx x N_rx rows, which stays in
         # cache (in the trace's order they span the whole recording: measured 5x slower).
-        paths = paths.select(np.argsort(paths.tx_delay.min(axis=1) + paths.rx_delay.min(axis=1)))
-        grid = self.impulse_grid(paths, n_rx, per_pair=True, period=period)
+        grid = self._pair_grid(paths, n_rx, per_pair=True, period=period, by_arrival=True)
         channels = sfft.fft(grid, axis=-1, workers=-1)[:, inside].reshape(n_tx, n_rx, -1)
         drives = self.drive_spectra(waveforms, delays, frequencies[inside]) \
             * (band.n_grid / band.n_fft / self._kernel_transform(nu[inside]))

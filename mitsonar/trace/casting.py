@@ -20,6 +20,8 @@ from mitsonar.jit import backend, to_jit
 from mitsonar.physics.array import ArrayGeometry
 from mitsonar.scene.loading import AcousticScene, mitsuba
 from mitsonar.scene.rays import rays
+from mitsonar.trace.density import (DEPTH_JUMP, block_cells, block_sizes, blocks, continuous,
+                                    patch_phase_error)
 
 #: Offset of secondary ray origins from a surface [m].
 _EPS = 1e-4
@@ -51,6 +53,17 @@ def _unit(v):
     return v / _length(v)[..., None]
 
 
+def ray_differentials(d, norm_v, e1, e2, wa, wb):
+    """Edges (dd1, dd2) (H, 3) of the cells of rays of unit directions ``d`` (H, 3) through
+    tangent-plane offsets of norm ``norm_v`` (H,) = |u + a e1 + b e2| and widths ``wa``, ``wb``
+    (H,) along the tangent axes ``e1``, ``e2`` ((H, 3) or (3,)): the changes of the unit
+    direction across the cell (perpendicular to ``d``)."""
+    inv = (1.0 / norm_v)[:, None]
+    dd1 = (e1 - d * _rows_dot(d, e1)[:, None]) * inv * wa[:, None]
+    dd2 = (e2 - d * _rows_dot(d, e2)[:, None]) * inv * wb[:, None]
+    return dd1, dd2
+
+
 def _rotate(rotation, v, inverse: bool = False):
     """Rows (K, 3) rotated by their own matrices (K, 3, 3) (transposed with ``inverse``)."""
     return np.einsum("kji,kj->ki" if inverse else "kij,kj->ki", rotation, v)
@@ -63,14 +76,18 @@ class RayCaster:
         scene: the loaded acoustic scene.
         geometry: arrays of the sensor head.
         settings: the trace's :class:`~mitsonar.trace.tracer.TraceSettings` (grid, refinement,
-            shadow rays).
+            merging, shadow rays).
+        wavenumbers: (carrier, top of the band) [rad/m] of the patch criterion
+            (:mod:`mitsonar.trace.density`); None: cells are never merged.
     """
 
-    def __init__(self, scene: AcousticScene, geometry: ArrayGeometry, settings):
+    def __init__(self, scene: AcousticScene, geometry: ArrayGeometry, settings,
+                 wavenumbers: tuple[float, float] | None = None):
         self.mi = mitsuba()
         self.scene = scene
         self.geometry = geometry
         self.settings = settings
+        self._wavenumbers = wavenumbers
         self._transparent = np.array([m.transparent for m in scene.materials])
         s = settings
         if s.model == "paper":
@@ -268,9 +285,89 @@ class RayCaster:
         return visible.reshape(len(points), len(rx)).astype(float)
 
 
+    def _merging(self) -> bool:
+        """Whether cells are merged where the patch criterion allows: the physical model with a
+        merge size above 1 and known wavenumbers."""
+        s = self.settings
+        return s.model == "physical" and s.max_merge > 1 and self._wavenumbers is not None
+
+    def _phase_error(self, rotation, u, e1, e2, beam, a, b, wa, wb, t, n_w, spread):
+        """(K,) phase error [rad] of the patches of cells (a, b, wa, wb) (K,) of grids ``beam``
+        at ranges ``t`` on surfaces of world normals ``n_w`` (K, 3) spread by ``spread`` (K,)
+        [rad] (:func:`~mitsonar.trace.density.patch_phase_error`)."""
+        v = u[beam] + a[:, None] * e1[beam] + b[:, None] * e2[beam]
+        norm_v = _length(v)
+        d = v / norm_v[:, None]
+        dd1, dd2 = ray_differentials(d, norm_v, e1[beam], e2[beam], wa, wb)
+        normals = _rotate(rotation[beam], n_w, inverse=True)
+        return patch_phase_error(t, d, normals, dd1, dd2, *self._wavenumbers[::-1], spread)
+
+    def _merge_blocks(self, rotation, u, e1, e2, grid, t, n_w, shapes, free):
+        """Blocks of cells that one ray each may replace (:mod:`~mitsonar.trace.density`), the
+        largest first, each cell in one block at most.
+
+        Args:
+            grid: (a, b, wa, wb, inside), each (G, n_a, n_b), as :meth:`_cast_grid` takes it.
+            t, n_w, shapes: (G, n_a, n_b) ranges, (G, n_a, n_b, 3) world normals and shape ids
+                of the cells' rays.
+            free: (G, n_a, n_b) cells that may be merged (inside, hit, not split).
+        Returns:
+            The blocks' rays (a, b, wa, wb, grid index), each (M,), the shape id and range [m]
+            their centre rays must find (M,), and per block size the (M_k, cells) flat indices
+            of its blocks' cells, in the order of the rays.
+        """
+        s = self.settings
+        n_a, n_b = free.shape[1:]
+        cell = np.arange(free.size).reshape(free.shape)
+        normals = n_w.reshape(-1, 3)
+        flip = _rows_dot(normals, _rotate(np.repeat(rotation, n_a * n_b, axis=0),
+                                          self._grid_directions(u, e1, e2, grid))) > 0
+        facing = np.where(flip[:, None], -normals, normals)
+        flat = [x.ravel() for x in (*grid[:4], shapes, t)]
+        covered = np.zeros(free.size, bool)
+        chosen = []  # per block size: block centres and widths, grid, shape, range, cells
+        for size in block_sizes(s.max_merge):  # a few shapes, largest first
+            whole = blocks(free & ~covered.reshape(free.shape), size, False).all(axis=-1)
+            cells = blocks(cell, size, -1)[whole]  # (K, cells per block), all free
+            ok, normal, spread, depth = continuous(cells, flat[4], facing, flat[5],
+                                                   s.refine_normal_angle)
+            cells, g = cells[ok], cells[ok, 0] // (n_a * n_b)
+            centre = block_cells(*flat[:4], cells)
+            take = self._phase_error(rotation, u, e1, e2, g, *centre, depth[ok], normal[ok],
+                                     spread[ok]) <= s.max_patch_phase
+            if np.any(take):
+                covered[cells[take].ravel()] = True
+                chosen.append((*(x[take] for x in centre), g[take], flat[4][cells[take, 0]],
+                               depth[ok][take], cells[take]))
+        if not chosen:
+            return None
+        return tuple(np.concatenate([c[k] for c in chosen]) for k in range(7)), \
+            [c[7] for c in chosen]
+
+    @staticmethod
+    def _owners(blocks_cells, good, n_cells: int) -> np.ndarray:
+        """(n_cells,) index among the ``good`` (M,) blocks of the block that replaces each cell
+        (-1: none)."""
+        owner = np.full(n_cells, -1)
+        rank = np.cumsum(good) - 1
+        start = 0
+        for cells in blocks_cells:  # per block size (a few)
+            rows = np.flatnonzero(good[start:start + len(cells)])
+            owner[cells[rows]] = rank[start + rows][:, None]
+            start += len(cells)
+        return owner
+
+    @staticmethod
+    def _grid_directions(u, e1, e2, grid):
+        """(G x n_a x n_b, 3) unit directions (sensor frame) of the cells of ``grid``."""
+        a, b = grid[0], grid[1]
+        v = u[:, None, None] + a[..., None] * e1[:, None, None] + b[..., None] * e2[:, None, None]
+        return _unit(v).reshape(-1, 3)
+
     def _cast_grid(self, rotation, translation, u, e1, e2, grid, refinable, dense=None):
         """Cast the rays of G grids of cells, grid g around axis u[g] (G, 3) with tangent basis
-        e1[g], e2[g] from pose (rotation[g] (3, 3), translation[g] (3,)), and refine them.
+        e1[g], e2[g] from pose (rotation[g] (3, 3), translation[g] (3,)), refine them, and merge
+        blocks of cells where the patch criterion allows (:meth:`_merging`).
 
         Args:
             grid: (a, b, wa, wb, inside), each (G, n_a, n_b): cell centres and widths in the
@@ -278,10 +375,13 @@ class RayCaster:
             refinable: (G, n_a, n_b) cells that may be split at silhouettes (or None).
             dense: (G, n_a, n_b) cells split whatever they hit (or None).
         Returns:
-            The rays kept (each grid's cells in grid order, then its sub-rays), as arrays over
-            rays: tangent offsets a, b and widths wa, wb, directions d (sensor frame),
-            |u + a e1 + b e2|, t (inf: miss), world hit points and normals, material index,
-            and grid index; and the ray count per grid (G,).
+            The rays kept (each grid's cells in grid order, then its sub-rays and merged rays),
+            as arrays over rays: tangent offsets a, b and widths wa, wb, directions d (sensor
+            frame), |u + a e1 + b e2|, t (inf: miss), world hit points and normals, material
+            index, and grid index; the ray count per grid (G,); and None, or where blocks were
+            merged, the rays of the fixed grid (in the same order as without merging): grid
+            index, t, material, cell width product wa wb, and the index of the kept ray that
+            stands for each (itself, or its block's).
         """
         s = self.settings
         inside = grid[4]
@@ -296,27 +396,65 @@ class RayCaster:
         d[keep], norm_v[keep], (t[keep], p_w[keep], n_w[keep], mats[keep], shapes[keep]) = \
             self._cast(rotation, translation, u, e1, e2, beam[keep], a[keep], b[keep])
         m = s.refine
+        split = np.zeros(len(a), bool)
         if m > 1 and s.model == "physical":
-            split = (self._refine_mask(inside, t.reshape(shape), n_w.reshape(shape + (3,)),
-                                       shapes.reshape(shape)) & refinable).ravel()
             if dense is not None:
-                split |= (dense & inside).ravel()
-            if np.any(split):
-                keep &= ~split
-                frac = (np.arange(m) + 0.5) / m - 0.5
-                fa, fb = np.meshgrid(frac, frac, indexing="ij")
-                ca = (a[split, None] + fa.ravel()[None] * wa[split, None]).ravel()
-                cb = (b[split, None] + fb.ravel()[None] * wb[split, None]).ravel()
-                cwa = np.repeat(wa[split] / m, m * m)
-                cwb = np.repeat(wb[split] / m, m * m)
-                cbeam = np.repeat(beam[split], m * m)
-                cd, cnorm, (ct, cp, cn, cmat, _) = self._cast(rotation, translation, u, e1, e2,
-                                                              cbeam, ca, cb)
-                # Per grid: its kept rays in grid order, then its sub-rays.
-                order = np.argsort(np.concatenate([beam[keep], cbeam]), kind="stable")
-                return tuple(np.concatenate([x[keep], y])[order] for x, y in
-                             ((a, ca), (b, cb), (wa, cwa), (wb, cwb), (d, cd), (norm_v, cnorm),
-                              (t, ct), (p_w, cp), (n_w, cn), (mats, cmat), (beam, cbeam))), \
-                    np.bincount(np.concatenate([beam[keep], cbeam]), minlength=shape[0])
-        rays_kept = tuple(x[keep] for x in (a, b, wa, wb, d, norm_v, t, p_w, n_w, mats, beam))
-        return rays_kept, np.bincount(beam[keep], minlength=shape[0])
+                split = (dense & inside).ravel()
+            # The refinement's mask, where it can still split a cell.
+            if refinable is not None and np.any(refinable.ravel() & inside.ravel() & ~split):
+                split |= (self._refine_mask(inside, t.reshape(shape), n_w.reshape(shape + (3,)),
+                                            shapes.reshape(shape)) & refinable).ravel()
+        keep &= ~split
+        fixed = keep.copy()  # the fixed grid's cells
+        # New rays, cast together: sub-rays of the split cells, then the merged blocks' rays.
+        frac = (np.arange(m) + 0.5) / m - 0.5
+        fa, fb = (x.ravel() for x in np.meshgrid(frac, frac, indexing="ij"))
+        new = [(a[split, None] + fa[None] * wa[split, None]).ravel(),
+               (b[split, None] + fb[None] * wb[split, None]).ravel(),
+               np.repeat(wa[split] / m, m * m), np.repeat(wb[split] / m, m * m),
+               np.repeat(beam[split], m * m)]
+        n_sub = len(new[0])
+        merged = None
+        if self._merging():
+            hit = np.isfinite(t) & (mats >= 0)
+            merged = self._merge_blocks(rotation, u, e1, e2, grid, t.reshape(shape),
+                                        n_w.reshape(shape + (3,)), shapes.reshape(shape),
+                                        (keep & hit).reshape(shape))
+            if merged is not None:
+                new = [np.concatenate([x, y]) for x, y in zip(new, merged[0][:5])]
+        extra, owner = None, None
+        if len(new[0]):
+            cd, cnorm, (ct, cp, cn, cmat, cshape) = self._cast(rotation, translation, u, e1, e2,
+                                                               new[4], new[0], new[1])
+            extra = (*new[:4], cd, cnorm, ct, cp, cn, cmat, new[4])
+            if merged is not None:
+                # A block's centre ray must find its cells' surface at their depth, else the
+                # cells stay as they are.
+                shape_ref, depth = merged[0][5:]
+                good = (cshape[n_sub:] == shape_ref) \
+                    & (np.abs(ct[n_sub:] - depth) <= DEPTH_JUMP * depth)
+                owner = self._owners(merged[1], good, len(a))
+                keep &= owner < 0
+                rows = np.concatenate([np.ones(n_sub, bool), good])
+                extra = tuple(x[rows] for x in extra)
+        rays = (a, b, wa, wb, d, norm_v, t, p_w, n_w, mats, beam)
+        if extra is None:
+            rays_kept = tuple(x[keep] for x in rays)
+            return rays_kept, np.bincount(rays_kept[-1], minlength=shape[0]), None
+        # Per grid: its kept rays in grid order, then its sub-rays and merged rays.
+        kept = np.concatenate([np.flatnonzero(keep), len(a) + np.arange(len(extra[0]))])
+        order = np.argsort(np.concatenate([beam[keep], extra[-1]]), kind="stable")
+        rays_kept = tuple(np.concatenate([x[keep], y])[order] for x, y in zip(rays, extra))
+        counts = np.bincount(rays_kept[-1], minlength=shape[0])
+        if owner is None or not np.any(owner >= 0):
+            return rays_kept, counts, None
+        # The fixed grid's rays (cells before merging, then sub-rays) and the kept ray that
+        # stands for each: itself, or the block that replaced it.
+        position = np.empty(len(a) + len(extra[0]), int)
+        position[kept[order]] = np.arange(len(order))
+        stands = np.where(owner >= 0, len(a) + n_sub + owner, np.arange(len(a)))
+        pairs = ((beam, extra[-1]), (t, extra[6]), (mats, extra[9]), (wa * wb, extra[2] * extra[3]))
+        attributes = [np.concatenate([x[fixed], y[:n_sub]]) for x, y in pairs]
+        stand = np.concatenate([stands[fixed], len(a) + np.arange(n_sub)])
+        by_grid = np.argsort(attributes[0], kind="stable")
+        return rays_kept, counts, (*(x[by_grid] for x in attributes), position[stand[by_grid]])

@@ -94,8 +94,18 @@ class HitPaths:
                      for name in cls.__dataclass_fields__))
 
     def select(self, rows) -> "HitPaths":
-        """The patches ``rows`` (an index, slice or mask over the H patches)."""
-        return HitPaths(*(getattr(self, name)[rows] for name in self.__dataclass_fields__))
+        """The patches ``rows`` (an index, slice or mask over the H patches); their
+        :attr:`arrivals`, where already computed, are carried over."""
+        out = HitPaths(*(getattr(self, name)[rows] for name in self.__dataclass_fields__))
+        if "arrivals" in self.__dict__:
+            out.__dict__["arrivals"] = tuple(x[rows] for x in self.arrivals)
+        return out
+
+    @cached_property
+    def arrivals(self) -> tuple[np.ndarray, np.ndarray]:
+        """(earliest, latest) (H,) delays [s] of each patch's element pairs, computed once."""
+        return (self.tx_delay.min(axis=1) + self.rx_delay.min(axis=1),
+                self.tx_delay.max(axis=1) + self.rx_delay.max(axis=1))
 
     @property
     def elements(self) -> tuple[int, int]:
@@ -212,8 +222,7 @@ class HitPaths:
         channel = to_jit(UInt32, element % n_rx)
         # A merged path's delay lies within its pairs' (its centre is their weighted mean);
         # |a| <= sum_i |g_i| and |b| <= sum_i |g_i| |tau_i - m|, m between the tau_i.
-        span = (float(np.min(self.tx_delay.min(axis=1) + self.rx_delay.min(axis=1))),
-                float(np.max(self.tx_delay.max(axis=1) + self.rx_delay.max(axis=1))))
+        span = (float(self.arrivals[0].min()), float(self.arrivals[1].max()))
         bound = n_tx * self.gain_bound()
         peaks = (float(bound.max()), float(np.max(bound * np.ptp(self.tx_delay, axis=1))))
         return [MergedHits((joined(k), joined(k + 1)), (joined(k + 2), joined(k + 3)), centre,

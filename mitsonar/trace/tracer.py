@@ -54,7 +54,8 @@ from mitsonar.physics.medium import Medium
 from mitsonar.physics.transducer import Transducer
 from mitsonar.physics.waveforms import Pulse
 from mitsonar.scene.loading import AcousticScene
-from mitsonar.trace.casting import _EPS, RayCaster, _length, _rotate, _rows_dot, _unit
+from mitsonar.trace.casting import (_EPS, RayCaster, _length, _rotate, _rows_dot, _unit,
+                                    ray_differentials)
 from mitsonar.trace.element_factors import element_factors
 from mitsonar.trace.hitpaths import HitPaths
 from mitsonar.trace.paths import Paths
@@ -95,6 +96,13 @@ class TraceSettings:
             ``refine_radius`` of a beam axis ``refine`` times denser. The default, 2 deg and
             0.67 deg in the main lobes, is as dense as a beam's own grid (2.5 deg outside its
             main lobe, 0.43-0.6 deg within 4 deg of its axis).
+        max_merge: largest block of max_merge x max_merge neighbouring cells (a power of 2) merged
+            into one patch where the patch criterion allows (:mod:`mitsonar.trace.density`:
+            ray density that follows range and footprint); 1 (the default) keeps the fixed
+            grid. Opt-in: it moves a few borderline decisions (the merged scatterers sit at
+            their block's centre) and bought no measurable time (docs/performance.md).
+        max_patch_phase: the patch criterion: the largest phase error of the patch model at a
+            patch's corners at the band's top frequency [rad].
     """
 
     model: str = "physical"
@@ -116,6 +124,8 @@ class TraceSettings:
     ray_density: str = "beam"
     transmit_weights: tuple | None = None
     shared_ray_step: float = np.radians(2.0)
+    max_merge: int = 1
+    max_patch_phase: float = np.pi / 8
 
     def __post_init__(self):
         if self.model not in ("physical", "paper"):
@@ -139,6 +149,10 @@ class TraceSettings:
             raise ValueError(f"TraceSettings.ray_density must be 'beam' or 'uniform', "
                              f"got {self.ray_density!r}")
         check_range("TraceSettings.shared_ray_step [rad]", self.shared_ray_step, 1e-3, 0.2)
+        if self.max_merge not in (1, 2, 4, 8, 16):
+            raise ValueError(f"TraceSettings.max_merge must be 1, 2, 4, 8 or 16, "
+                             f"got {self.max_merge}")
+        check_range("TraceSettings.max_patch_phase [rad]", self.max_patch_phase, 1e-3, np.pi)
         if self.transmit_weights is not None:
             weights = tuple(float(w) for w in np.ravel(self.transmit_weights))
             check_finite("TraceSettings.transmit_weights", np.array(weights))
@@ -206,11 +220,14 @@ class AcousticTracer(RayCaster):
 
     def __init__(self, scene: AcousticScene, geometry: ArrayGeometry, transducer: Transducer,
                  medium: Medium, pulse: Pulse, settings: TraceSettings = TraceSettings()):
-        super().__init__(scene, geometry, settings)
+        # The band's top: half the wider of the transducer's and the pulse's bandwidths above
+        # the carrier.
+        top = pulse.frequency + 0.5 * max(transducer.bandwidth_6db, 1.0 / pulse.duration)
+        self.k = float(medium.wavenumber(pulse.frequency))
+        super().__init__(scene, geometry, settings, (self.k, float(medium.wavenumber(top))))
         self.transducer = transducer
         self.medium = medium
         self.c = medium.speed_of_sound
-        self.k = float(medium.wavenumber(pulse.frequency))
         z_air = medium.impedance
         self._z_air = z_air
         absorption = float(medium.absorption_db_per_m(pulse.frequency)) \
@@ -324,7 +341,7 @@ class AcousticTracer(RayCaster):
         e1, e2 = np.array([e for e, _ in basis]), np.array([e for _, e in basis])
         grids = (n_beams,) + self._grid[0].shape
         refinable = None if s.model == "paper" else np.broadcast_to(self._refinable, grids)
-        (a, b, wa, wb, d, norm_v, t, p_w, n_w, mats, beam), ray_count = self._cast_grid(
+        (a, b, wa, wb, d, norm_v, t, p_w, n_w, mats, beam), ray_count, fixed = self._cast_grid(
             rotation, translation, u, e1, e2,
             tuple(np.broadcast_to(x, grids) for x in self._grid), refinable)
         hit = np.isfinite(t) & (mats >= 0)
@@ -337,14 +354,13 @@ class AcousticTracer(RayCaster):
         mats_h = mats[hit]
         taper = self._taper(a[hit], b[hit])
         visible = self._visibility(rot_h, trans_h, x, n)
-        inv = (1.0 / norm_v[hit])[:, None]
-        dd1 = (e1[hb] - d_h * _rows_dot(d_h, e1[hb])[:, None]) * inv * wa[hit][:, None]
-        dd2 = (e2[hb] - d_h * _rows_dot(d_h, e2[hb])[:, None]) * inv * wb[hit][:, None]
+        dd1, dd2 = ray_differentials(d_h, norm_v[hit], e1[hb], e2[hb], wa[hit], wb[hit])
         steering = g.steering_delays(u, self.c)[hb]  # (H, N_tx)
         rngs = [np.random.default_rng(seed) for seed in seeds]
         edges = self._patch_edges(d_h, n, dd1, dd2, t[hit])
+        roughness = self._hit_roughness(fixed, t, hit, mats_h, hb, rngs)
         parts = [(hb, self._scatter(x, n, mats_h, edges, None, steering, taper.astype(complex),
-                                    visible, self._roughness(mats_h, hb, rngs)))]
+                                    visible, roughness))]
         if s.max_bounces == 2 and s.model == "physical":
             parts += self._second_bounce(rotation, translation, hb, x, n, mats_h, d_h, dd1, dd2,
                                          t[hit], taper, steering, rngs)
@@ -383,21 +399,19 @@ class AcousticTracer(RayCaster):
         u = _unit(np.asarray(directions, dtype=float).reshape(-1, 3))
         u0, e1, e2, grid, refinable = self._union_grid(u, self.settings.shared_ray_step)
         rotation, translation = sensor_pose.rotation, sensor_pose.translation
-        (a, b, wa, wb, d, norm_v, t, p_w, n_w, mats, _), ray_count = self._cast_grid(
+        (a, b, wa, wb, d, norm_v, t, p_w, n_w, mats, _), ray_count, fixed = self._cast_grid(
             rotation[None], translation[None], u0[None], e1[None], e2[None], grid, refinable,
             dense=refinable)
         hit = np.isfinite(t) & (mats >= 0)
         d_h, mats_h = d[hit], mats[hit]
-        inv = (1.0 / norm_v[hit])[:, None]
-        dd1 = (e1 - d_h * (d_h @ e1)[:, None]) * inv * wa[hit][:, None]
-        dd2 = (e2 - d_h * (d_h @ e2)[:, None]) * inv * wb[hit][:, None]
+        dd1, dd2 = ray_differentials(d_h, norm_v[hit], e1, e2, wa[hit], wb[hit])
         world = lambda v: v @ rotation.T  # noqa: E731  (rows rotated into the world frame)
         d_w = world(d_h)
         n = _unit(n_w[hit])
         n = np.where(_rows_dot(d_w, n)[:, None] > 0, -n, n)  # face the incoming ray
         edges = self._patch_edges(d_w, n, world(dd1), world(dd2), t[hit])
-        roughness = self._roughness(mats_h, np.zeros(len(mats_h), int),
-                                    [np.random.default_rng(seed)])
+        roughness = self._hit_roughness(fixed, t, hit, mats_h, np.zeros(len(mats_h), int),
+                                        [np.random.default_rng(seed)])
         return HitPatches(p_w[hit], n, edges, mats_h, self._union_weight(d_h @ u.T), roughness,
                           sensor_pose, int(ray_count[0]))
 
@@ -437,6 +451,25 @@ class AcousticTracer(RayCaster):
             if np.any(diffuse[rows]):
                 out[rows] = np.exp(2j * np.pi * rng.uniform(0.0, 1.0, bounds[k + 1] - bounds[k]))
         return out
+
+    def _hit_roughness(self, fixed, t, hit, mats, beam, rngs) -> np.ndarray:
+        """(H,) diffuse phasors of the hits ``hit`` (mask over the traced rays, of ranges ``t``
+        [m]; materials ``mats`` and beams ``beam`` (H,)): :meth:`_roughness`, or where blocks of
+        cells were merged (``fixed``, from :meth:`_cast_grid`), drawn for the fixed grid's hits
+        as without merging and summed per block with amplitudes sqrt(wa wb / their sum) and the
+        carrier phases of their two-way ranges to the block's centre: the coherent sum of the
+        block's scatterers, the same speckle realisation."""
+        if fixed is None:
+            return self._roughness(mats, beam, rngs)
+        grid, t_cells, materials, area, stands = fixed
+        on = np.isfinite(t_cells) & (materials >= 0)
+        stands, area = stands[on], area[on]
+        phasor = self._roughness(materials[on], grid[on], rngs) \
+            * np.exp(-2j * self.k * (t_cells[on] - t[stands]))
+        amplitude = np.sqrt(area / np.bincount(stands, weights=area, minlength=len(hit))[stands])
+        total = (np.bincount(stands, weights=amplitude * phasor.real, minlength=len(hit))
+                 + 1j * np.bincount(stands, weights=amplitude * phasor.imag, minlength=len(hit)))
+        return total[hit]
 
     def _second_bounce(self, rotation, translation, beam, x1, n1, mats1, d1, dd1, dd2, t1, taper,
                        steering, rngs) -> list[tuple[np.ndarray, HitPaths]]:

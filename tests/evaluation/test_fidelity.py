@@ -35,6 +35,30 @@ def test_a_wall_at_normal_incidence_needs_only_the_draft_level(scene_file):
     assert [r.fidelity.name for r in runs] == ["draft", "standard", "fine"]
 
 
+def test_merged_patches_are_judged_against_the_fixed_grid(scene_file):
+    """With patches merged by range and footprint (TraceSettings.max_merge=4) the choice still
+    stops at 'draft' on a specular wall, and its reference level traced the fixed grid (the
+    same depths as a 'fine' run without merging)."""
+    from dataclasses import replace
+
+    from helpers import IDENTITY
+    from mitsonar.evaluation.fidelity import ping_at
+    from mitsonar.scene.xml import material_xml, rectangle_xml
+
+    wall = load_scene(scene_file("wall", material_xml("w", preset="glass", scattering=0.0),
+                                 rectangle_xml("w", (0, 0, 0.6))))
+    base = mitsonar.SonarConfig()
+    merging = replace(base, trace=replace(base.trace, max_merge=4))
+    directions = np.array([[0.0, 0.0, 1.0], [0.05, 0.0, 1.0]])
+    level, runs = choose_fidelity(wall, [IDENTITY], directions, config=merging, reference="fine")
+    assert level.name == "draft"
+    fixed = ping_at(wall, base, PRESETS["fine"], [IDENTITY], directions)
+    np.testing.assert_array_equal(runs[-1].depth, fixed.depth)
+    merged = ping_at(wall, merging, PRESETS["fine"], [IDENTITY], directions)
+    assert not np.array_equal(merged.depth, fixed.depth)  # merging changed the fine level
+    assert np.nanmax(np.abs(merged.depth - fixed.depth)) < 1e-3
+
+
 def test_diffuse_scene_judged_against_the_ground_truth():
     """room_glass: the draft and standard levels pick different diffuse reflectors beam by beam
     (speckle realisations of different ray grids: depths centimetres apart), yet their points lie
