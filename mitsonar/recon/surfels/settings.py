@@ -60,6 +60,9 @@ class SurfelSettings:
         refine: refine the planes jointly with the crease constraints (package docstring).
         check_spacing: angular spacing of the check pings over the grown planes [rad] (0: no
             check pings, planes fill their claimed regions unchecked as in the paper).
+        min_refutations: a plane group is refuted (its surfels dropped) when at least this many
+            check echoes in the regions it claims lie on none of their planes and they outnumber
+            the echoes on it (:func:`~mitsonar.recon.surfels.map.refuted_groups`).
         range_sigma, angle_sigma: a point at range r seen at incidence theta is expected off
             its plane by sqrt(range_sigma^2 + (r tan(angle_sigma) sin(theta))^2) [m]: the echo's
             range belongs to a direction up to a fraction of the footprint off the beam axis
@@ -93,6 +96,7 @@ class SurfelSettings:
     max_fill: int = 8
     refine: bool = True
     check_spacing: float = np.radians(5.0)
+    min_refutations: int = 3
     range_sigma: float = 0.005
     angle_sigma: float = np.radians(1.0)
     crease_sigma: float = 1.0
@@ -105,7 +109,8 @@ class SurfelSettings:
         for name in ("fill_spacing", "fill_margin", "range_sigma", "angle_sigma", "crease_sigma",
                      "crease_gate"):
             check_positive(f"SurfelSettings.{name}", getattr(self, name))
-        for name in ("image_width", "spp", "barrier_width", "stride", "max_iterations"):
+        for name in ("image_width", "spp", "barrier_width", "stride", "max_iterations",
+                     "min_refutations"):
             value = getattr(self, name)
             if int(value) != value or value < 1:
                 raise ValueError(f"SurfelSettings.{name} must be a positive integer, got {value}")
