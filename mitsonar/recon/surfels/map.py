@@ -14,7 +14,8 @@ from mitsonar.recon.surfels.growing import (_region_at, camera_rays, check_pose,
                                             heard_checks, intersect_planes, segment_sides,
                                             shadow_segments)
 from mitsonar.recon.surfels.pinging import MovingPinger, StillPinger
-from mitsonar.recon.surfels.planes import PlaneGroups, _on_planes, group_surfels, refine_planes
+from mitsonar.recon.surfels.planes import (PlaneGroups, _on_planes, _pad_groups, _plane_stats,
+                                           group_surfels, refine_planes)
 from mitsonar.recon.surfels.scanning import PoseScan, scan_pose
 from mitsonar.recon.surfels.settings import SurfelSettings
 from mitsonar.sensors.camera import CameraModel, CameraRenderer
@@ -111,7 +112,7 @@ def _check_points(scans, meshes, groups: PlaneGroups, settings: SurfelSettings):
         pts = scan.checks.points[heard]
         region = _region_at(mesh.regions, scan.checks.pixels[heard])
         claimed = np.zeros((len(pts), len(groups)), dtype=bool)
-        claimed[region >= 0] = mesh.region_groups[region[region >= 0]] > 0
+        claimed[region >= 0] = mesh.hypotheses[region[region >= 0]] > 0
         claimed &= _on_planes(pts, scan.pose.translation, groups, settings)
         off = np.where(claimed, np.abs(pts @ groups.normals.T - groups.offsets), np.inf)
         g = np.argmin(off, axis=1) if len(pts) else np.zeros(0, int)
@@ -141,7 +142,7 @@ def refuted_groups(scans, meshes, groups: PlaneGroups, settings: SurfelSettings)
         heard = np.all(np.isfinite(scan.checks.points), axis=1)
         region = _region_at(mesh.regions, scan.checks.pixels[heard])
         claimed = np.zeros((len(region), len(groups)), dtype=bool)
-        claimed[region >= 0] = mesh.region_groups[region[region >= 0]] > 0
+        claimed[region >= 0] = mesh.hypotheses[region[region >= 0]] > 0
         on = claimed & _on_planes(scan.checks.points[heard], scan.pose.translation, groups,
                                   settings)
         confirmed += on.sum(axis=0)
@@ -211,6 +212,11 @@ def _build(scans, settings: SurfelSettings, refuted) -> SurfelMap:
             groups = refine_planes(groups, np.concatenate([every, checked]),
                                    np.concatenate([label, check_label]),
                                    np.concatenate([seen, check_view]), creases, settings)
+        # the check echoes on a plane widen its support: a lone surfel's plane they confirm
+        # over a wide area is then well determined and claims its regions
+        groups = replace(groups, normal_errors=_plane_stats(*_pad_groups(
+            np.concatenate([every, checked])[:, None], np.concatenate([seen, check_view]),
+            np.concatenate([label, check_label])), settings)[2])
         meshes = [grow_planes(s, s.segments[~r], groups, points, settings, checks)
                   for s, r in zip(scans, shadow)]
     vertices, triangles, plane, offset = [], [], [], 0
@@ -284,8 +290,10 @@ def map_surfels(sonar: Sonar, poses, odometry=None, settings: SurfelSettings = S
     surfel_map = build_map(scans, settings)
     if settings.check_spacing == 0 or len(surfel_map.groups) == 0:
         return surfel_map
+    aims = [grow_planes(s, s.segments[~r], surfel_map.groups, surfel_map.surfel_points, settings,
+                        tentative=True) for s, r in zip(scans, surfel_map.shadow)]
     checked = []
-    for k, (pose, scan, mesh) in enumerate(zip(poses, scans, surfel_map.meshes)):
+    for k, (pose, scan, mesh) in enumerate(zip(poses, scans, aims)):
         checked.append(check_pose(StillPinger(sonar, pose), scan, mesh, settings,
                                   _check_seed(settings, k)))
         if progress is not None:
@@ -312,7 +320,7 @@ def _mesh_so_far(scans, settings: SurfelSettings):
         return None
     groups = group_surfels(points, view, settings, extra)
     return grow_planes(scans[-1], scans[-1].segments, groups, points, settings,
-                       heard_checks(scans))
+                       heard_checks(scans), tentative=True)
 
 
 def map_surfels_along(sonar: Sonar, trajectory: Trajectory,

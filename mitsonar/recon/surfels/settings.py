@@ -40,6 +40,9 @@ class SurfelSettings:
         barrier_width: thickness of the drawn barriers [pixels].
         junction_gap: barrier segments that stop at most this short of a junction with another
             segment are extended to it [pixels] (:func:`~mitsonar.recon.lines.close_junctions`).
+        bridge_gap: collinear pieces of one line with gaps up to this fraction of the image
+            width between them are bridged in the barriers
+            (:func:`~mitsonar.recon.surfels.growing.barriers`).
         stride: grid step of the back-projected pixels [pixels].
         max_range: farthest back-projected map point from the camera [m]; None: the sonar's
             ``SonarConfig.max_range``, beyond which no check ping can confirm or refute a grown
@@ -85,6 +88,7 @@ class SurfelSettings:
     barrier_extension: float = 4.0
     barrier_width: int = 3
     junction_gap: float = 25.0
+    bridge_gap: float = 0.25
     stride: int = 2
     max_range: float | None = None
     shadow_offset: float = 5.0
@@ -126,6 +130,7 @@ class SurfelSettings:
         check_range("SurfelSettings.max_link_error [rad]", self.max_link_error, 0.0, np.pi / 2)
         check_range("SurfelSettings.barrier_extension [pixels]", self.barrier_extension, 0, np.inf)
         check_range("SurfelSettings.junction_gap [pixels]", self.junction_gap, 0, np.inf)
+        check_range("SurfelSettings.bridge_gap", self.bridge_gap, 0, np.inf)
         check_range("SurfelSettings.check_spacing [rad]", self.check_spacing, 0, np.pi / 2)
         if self.max_range is not None:
             check_positive("SurfelSettings.max_range [m]", self.max_range)
