@@ -196,6 +196,59 @@ def test_check_echoes_off_every_claiming_plane_refute_a_group():
     assert refuted(True, two, SurfelSettings(min_refutations=2)) == [True]
 
 
+def test_barriers_bridge_a_broken_line_and_reach_the_border():
+    """A horizontal crease found in three pieces (gaps of 30 and 40 px), its ends 10 px short of
+    the crop's sides, leaves the crop one region; the barriers bridge the gaps and extend the
+    ends to the border, so the regions above and below it are apart, and no barrier joins
+    them. With ``bridge_gap`` 0 and ``junction_gap`` 0 they stay one region."""
+    from mitsonar.recon.surfels.growing import barriers
+
+    box = (0, 0, 200, 150)
+    pieces = [[10.5, 75.5, 60.5, 75.5], [90.5, 75.5, 120.5, 75.5], [160.5, 75.5, 190.5, 75.5]]
+    settings = SurfelSettings(image_width=200)
+
+    def regions(s):
+        labels = region_labels(barriers(pieces, box, s), box, (150, 200), 0.0, 3)
+        return labels[[10, 140], [100, 100]], labels.max() + 1
+
+    (above, below), count = regions(settings)
+    assert count == 2 and above != below
+    (above, below), count = regions(SurfelSettings(image_width=200, bridge_gap=0.0,
+                                                   junction_gap=0.0))
+    assert count == 1 and above == below
+
+
+def test_check_echoes_confirm_a_lone_surfels_plane():
+    """A lone surfel 14 cm across on a wall 2 m ahead has a normal too poorly determined
+    (points 5 mm off the wall) to claim its region: nothing is grown. Check echoes on the wall
+    over the crop join its plane, which is then well determined and grown over the crop,
+    within 1 cm of the wall."""
+    from dataclasses import replace
+
+    from mitsonar.recon.lines import scan_pixels
+    from mitsonar.recon.surfels.map import build_map
+
+    triangle = np.array([[[40.5, 40.5], [52.5, 40.5], [40.5, 52.5]]])
+    scan = replace(_scan_stub([[40.5, 40.5, 52.5, 40.5], [40.5, 40.5, 40.5, 52.5]]),
+                   triangles=triangle, segment_pairs=np.array([[0, 1]]),
+                   residual=np.zeros(1), accepted=np.ones(1, bool))
+    off = np.array([0.005, -0.005, -0.005, 0.005])  # along the line of sight [m]
+    scan = replace(scan, points_world=_along_pixels(scan.camera, scan_pixels(triangle)[0],
+                                                    2.0 + off)[None])
+    settings = SurfelSettings(image_width=200, remove_shadows=False)
+    alone = build_map([scan], settings)
+    assert alone.groups.normal_errors[0] > settings.max_normal_error
+    assert not np.any(alone.meshes[0].grid_plane >= 0)
+    pixels = np.stack(np.meshgrid(np.arange(10.0, 200.0, 20.0), np.arange(5.0, 150.0, 20.0)),
+                      axis=-1).reshape(-1, 2)
+    checked = replace(scan, checks=CheckPings(pixels, _along_pixels(scan.camera, pixels, 2.0)))
+    confirmed = build_map([checked], settings)
+    assert confirmed.groups.normal_errors[0] < settings.max_normal_error
+    grown = confirmed.meshes[0].grid_plane >= 0
+    assert np.mean(grown) > 0.9
+    assert np.all(np.abs(confirmed.meshes[0].grid_points[grown][:, 2] - 2.0) < 0.01)
+
+
 def test_check_pings_stop_a_plane_where_the_sonar_refutes_it():
     """One plane 2 m ahead claims the whole crop (no lines) from a surfel on its left. Check
     pings on a 20 px grid: on the plane left of u = 100, 0.5 m behind it to the right.
