@@ -128,6 +128,127 @@ def test_regions_and_shadow_lines():
     assert shadow_segments(scan, regions, claims).tolist() == [False, True, False]
 
 
+def _along_pixels(camera, pixels, depth):
+    """Points (n, 3) [m] seen at pixels (n, 2) at sensor-frame depths z (n,) [m] by ``camera``
+    at the identity pose."""
+    f, (uc, vc) = camera.focal_pixels, camera.principal_point
+    ray = np.column_stack([(pixels[:, 0] - uc) / f, (pixels[:, 1] - vc) / f, np.ones(len(pixels))])
+    depth = np.broadcast_to(depth, len(pixels))
+    return camera.offset + ray * (depth - camera.offset[2])[:, None]
+
+
+def _wall_ahead():
+    """A plane group z = 2 m (normal towards the sensor at the origin) and one surfel on it left
+    of the image's centre."""
+    plane = PlaneGroups(np.zeros(1, int), np.array([[0.0, 0.0, -1.0]]), np.array([-2.0]),
+                        np.array([[-0.5, 0.0, 2.0]]), np.array([0.01]), 1)
+    surfel = np.array([[[-0.6, -0.1, 2.0], [-0.4, -0.1, 2.0], [-0.5, 0.1, 2.0],
+                        [-0.5, 0.0, 2.0]]])
+    return plane, surfel
+
+
+def test_check_echoes_of_another_pose_refute_a_plane_in_every_image():
+    """The check echoes of a pose 0.3 m to the side (on the wall z = 2 m left of the image's
+    centre, 0.5 m behind it to the right) stop the wall's growth in an image that fired no
+    check pings of its own; without them the whole crop is grown."""
+    from mitsonar.recon.surfels.growing import HeardChecks
+
+    plane, surfel = _wall_ahead()
+    scan = _scan_stub([])
+    assert np.all(grow_planes(scan, np.zeros((0, 4)), plane, surfel).grid_plane == 0)
+    pixels = np.stack(np.meshgrid(np.arange(10.0, 200.0, 20.0), np.arange(5.0, 150.0, 20.0)),
+                      axis=-1).reshape(-1, 2)
+    points = _along_pixels(scan.camera, pixels, np.where(pixels[:, 0] < 100, 2.0, 2.5))
+    elsewhere = np.broadcast_to([0.3, 0.0, 0.0], points.shape)
+    mesh = grow_planes(scan, np.zeros((0, 4)), plane, surfel, checks=HeardChecks(points,
+                                                                                 elsewhere))
+    cols = mesh.grid_pixels[0, :, 0]
+    grown = mesh.grid_plane >= 0
+    assert np.all(grown[:, cols < 99]) and not np.any(grown[:, cols > 101])
+
+
+def test_check_echoes_off_every_claiming_plane_refute_a_group():
+    """A plane group claiming the whole crop is refuted when at least ``min_refutations`` of
+    its pose's check echoes lie on no plane there and they outnumber those on it (a grid of 10
+    columns of 8 pings; echoes 0.5 m behind the plane in the right columns, on it in the
+    others; pings without an echo say nothing)."""
+    from dataclasses import replace
+
+    from mitsonar.recon.surfels.map import refuted_groups
+
+    plane, surfel = _wall_ahead()
+    scan = _scan_stub([])
+    mesh = grow_planes(scan, np.zeros((0, 4)), plane, surfel)
+    pixels = np.stack(np.meshgrid(np.arange(10.0, 200.0, 20.0), np.arange(5.0, 150.0, 20.0)),
+                      axis=-1).reshape(-1, 2)
+    u = pixels[:, 0]
+
+    def refuted(behind, heard=True, settings=SurfelSettings()):
+        points = _along_pixels(scan.camera, pixels, np.where(behind, 2.5, 2.0))
+        points[~np.broadcast_to(heard, len(points))] = np.nan
+        checked = replace(scan, checks=CheckPings(pixels, points))
+        return refuted_groups([checked], [mesh], plane, settings).tolist()
+
+    assert refuted(u > 80) == [True]     # 48 echoes against, 32 on it
+    assert refuted(u > 100) == [False]   # 40 and 40
+    two = np.arange(len(u)) < 2          # two echoes heard, both behind the plane
+    assert refuted(True, two) == [False]
+    assert refuted(True, two, SurfelSettings(min_refutations=2)) == [True]
+
+
+def test_barriers_bridge_a_broken_line_and_reach_the_border():
+    """A horizontal crease found in three pieces (gaps of 30 and 40 px), its ends 10 px short of
+    the crop's sides, leaves the crop one region; the barriers bridge the gaps and extend the
+    ends to the border, so the regions above and below it are apart, and no barrier joins
+    them. With ``bridge_gap`` 0 and ``junction_gap`` 0 they stay one region."""
+    from mitsonar.recon.surfels.growing import barriers
+
+    box = (0, 0, 200, 150)
+    pieces = [[10.5, 75.5, 60.5, 75.5], [90.5, 75.5, 120.5, 75.5], [160.5, 75.5, 190.5, 75.5]]
+    settings = SurfelSettings(image_width=200)
+
+    def regions(s):
+        labels = region_labels(barriers(pieces, box, s), box, (150, 200), 0.0, 3)
+        return labels[[10, 140], [100, 100]], labels.max() + 1
+
+    (above, below), count = regions(settings)
+    assert count == 2 and above != below
+    (above, below), count = regions(SurfelSettings(image_width=200, bridge_gap=0.0,
+                                                   junction_gap=0.0))
+    assert count == 1 and above == below
+
+
+def test_check_echoes_confirm_a_lone_surfels_plane():
+    """A lone surfel 14 cm across on a wall 2 m ahead has a normal too poorly determined
+    (points 5 mm off the wall) to claim its region: nothing is grown. Check echoes on the wall
+    over the crop join its plane, which is then well determined and grown over the crop,
+    within 1 cm of the wall."""
+    from dataclasses import replace
+
+    from mitsonar.recon.lines import scan_pixels
+    from mitsonar.recon.surfels.map import build_map
+
+    triangle = np.array([[[40.5, 40.5], [52.5, 40.5], [40.5, 52.5]]])
+    scan = replace(_scan_stub([[40.5, 40.5, 52.5, 40.5], [40.5, 40.5, 40.5, 52.5]]),
+                   triangles=triangle, segment_pairs=np.array([[0, 1]]),
+                   residual=np.zeros(1), accepted=np.ones(1, bool))
+    off = np.array([0.005, -0.005, -0.005, 0.005])  # along the line of sight [m]
+    scan = replace(scan, points_world=_along_pixels(scan.camera, scan_pixels(triangle)[0],
+                                                    2.0 + off)[None])
+    settings = SurfelSettings(image_width=200, remove_shadows=False)
+    alone = build_map([scan], settings)
+    assert alone.groups.normal_errors[0] > settings.max_normal_error
+    assert not np.any(alone.meshes[0].grid_plane >= 0)
+    pixels = np.stack(np.meshgrid(np.arange(10.0, 200.0, 20.0), np.arange(5.0, 150.0, 20.0)),
+                      axis=-1).reshape(-1, 2)
+    checked = replace(scan, checks=CheckPings(pixels, _along_pixels(scan.camera, pixels, 2.0)))
+    confirmed = build_map([checked], settings)
+    assert confirmed.groups.normal_errors[0] < settings.max_normal_error
+    grown = confirmed.meshes[0].grid_plane >= 0
+    assert np.mean(grown) > 0.9
+    assert np.all(np.abs(confirmed.meshes[0].grid_points[grown][:, 2] - 2.0) < 0.01)
+
+
 def test_check_pings_stop_a_plane_where_the_sonar_refutes_it():
     """One plane 2 m ahead claims the whole crop (no lines) from a surfel on its left. Check
     pings on a 20 px grid: on the plane left of u = 100, 0.5 m behind it to the right.
@@ -135,17 +256,14 @@ def test_check_pings_stop_a_plane_where_the_sonar_refutes_it():
     without an echo say nothing; without checks the whole crop is grown."""
     from dataclasses import replace
 
-    plane = PlaneGroups(np.zeros(1, int), np.array([[0.0, 0.0, -1.0]]), np.array([-2.0]),
-                        np.array([[-0.5, 0.0, 2.0]]), np.array([0.01]), 1)
-    surfel = np.array([[[-0.6, -0.1, 2.0], [-0.4, -0.1, 2.0], [-0.5, 0.1, 2.0],
-                        [-0.5, 0.0, 2.0]]])
+    plane, surfel = _wall_ahead()
     scan = _scan_stub([])
     unchecked = grow_planes(scan, np.zeros((0, 4)), plane, surfel)
     assert np.all(unchecked.grid_plane == 0)
     pixels = np.stack(np.meshgrid(np.arange(10.0, 200.0, 20.0), np.arange(5.0, 150.0, 20.0)),
                       axis=-1).reshape(-1, 2)
     u = pixels[:, 0]
-    points = np.column_stack([(u - 100) / 100, np.zeros(len(u)), np.where(u < 100, 2.0, 2.5)])
+    points = _along_pixels(scan.camera, pixels, np.where(u < 100, 2.0, 2.5))
     checked = grow_planes(replace(scan, checks=CheckPings(pixels, points)), np.zeros((0, 4)),
                           plane, surfel)
     cols = checked.grid_pixels[0, :, 0]

@@ -93,10 +93,12 @@ segments"). Convex edges seen from outside (a box corner) would need the farthes
 implementation assumes room interiors. The mesh of a pose joins grid neighbours on the same plane
 into triangles; the map is the union over poses, rebuilt on the global planes.
 
-Junctions (:func:`~mitsonar.recon.lines.close_junctions`): before the segments become barriers,
-an end that stops at most ``junction_gap`` pixels short of a junction with another segment is
-extended to it; FLD often stops a few pixels short of a window's corner, and the whole crop
-leaked through that gap onto the window's plane.
+Junctions (:func:`~mitsonar.recon.surfels.growing.barriers`): before the segments become
+barriers, the pieces of one line are bridged across gaps up to ``bridge_gap`` of the image width,
+and an end that stops at most ``junction_gap`` pixels short of a junction with another segment or
+with the crop's border is extended to it (:func:`~mitsonar.recon.lines.close_junctions`); FLD
+often stops a few pixels short of a window's corner, and the whole crop leaked through that gap
+onto the window's plane.
 
 Check pings (:func:`~mitsonar.recon.surfels.growing.check_pose`,
 :func:`~mitsonar.recon.surfels.growing._support`; an addition beyond the paper, ``check_spacing=0``
@@ -110,7 +112,20 @@ settles), and the map is grown again, each plane only where the nearest evidence
 seen obliquely reflects away from the array) says nothing. On scenes/room_glass (8 poses, 800 px,
 'paper' preset) a window plane fitted to 12 points on a 37 cm strip was 2.4 deg off and grown over a
 whole crop: 15.3 % of the sampled points within 2 cm; junction closing, the check points in the fits
-and the gating bring it to 99.8 % (measured on raw 32 spp images).
+and the gating bring it to 99.8 % (measured on raw 32 spp images). The check echoes of every pose
+count in every image (:func:`~mitsonar.recon.surfels.growing.heard_checks`).
+
+Plane hypotheses (:func:`~mitsonar.recon.surfels.map.refuted_groups`): four echoes near a convex
+corner fit some plane through it whatever the faces are; on varied_3 surfels bunched at a
+cabinet's corner (front, side and the wall behind) from four poses agreed on a plane 45 deg off
+every face, and it was grown over the wall (4.7 % of the map within 2 cm). A group is refuted
+when at least ``min_refutations`` check echoes in the regions it claims lie on none of the
+claiming planes and outnumber those on it; its surfels are dropped and the map is built again.
+A lone surfel's poorly determined plane claims nothing but stays a hypothesis
+(:attr:`~mitsonar.recon.surfels.growing.PoseMesh.hypotheses`): the check pings are aimed over its
+region (``tentative`` growth), the echoes on it join its fit, and the normal's standard error is
+recomputed with them, so a plane the sonar confirms over a wide area claims its region (on
+varied_1 the floor, held by one surfel, 16 deg standard error alone, 1.4 deg with its checks).
 
 Shadow lines (paper Fig. 8a, :func:`~mitsonar.recon.surfels.growing.shadow_segments`): a segment
 whose two sides (sampled ``shadow_offset`` pixels across it) both lie in regions claimed by the same

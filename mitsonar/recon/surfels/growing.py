@@ -12,7 +12,7 @@ import numpy as np
 
 from mitsonar.frames import Pose
 from mitsonar.physics.beampattern import in_fov
-from mitsonar.recon.lines import close_junctions
+from mitsonar.recon.lines import close_junctions, merge_collinear
 from mitsonar.recon.surfels.planes import PlaneGroups, _on_planes, project_onto_plane
 from mitsonar.recon.surfels.scanning import CheckPings, PoseScan
 from mitsonar.recon.surfels.settings import SurfelSettings
@@ -64,6 +64,29 @@ def region_labels(segments, box, shape, extension: float = 4.0, width: int = 3) 
     return np.where(free > 0, label - 1, -1)
 
 
+def barriers(segments, box, settings: SurfelSettings) -> np.ndarray:
+    """Segments (m, 4) [pixels] that cut the field-of-view crop ``box`` into regions: the
+    detected ``segments`` (n, 4), bridges across the gaps between pieces of one line (collinear
+    within :func:`~mitsonar.recon.lines.merge_collinear`'s tolerances, gaps up to
+    ``bridge_gap`` x the image width between them), and ends that stop at most ``junction_gap``
+    short of another segment or of the crop's border extended to it
+    (:func:`~mitsonar.recon.lines.close_junctions`).
+
+    A wall-floor crease seen at a grazing angle is found in pieces; through the gaps the floor's
+    region reached the wall's, and with no wall surfel the floor plane was grown over the wall's
+    pixels, behind the wall up to the sonar's range (varied_1: 18 % of the map's area in a band
+    of 20 px above the crease). An extra barrier only splits a region, never joins two.
+    """
+    s = np.asarray(segments, dtype=float).reshape(-1, 4)
+    u0, v0, u1, v1 = box
+    border = np.array([[u0, v0, u1, v0], [u1, v0, u1, v1], [u1, v1, u0, v1], [u0, v1, u0, v0]],
+                      dtype=float)
+    bridged = merge_collinear(s, gap_tolerance=settings.bridge_gap * settings.image_width) \
+        if len(s) else s
+    every = np.concatenate([s, bridged, border])
+    return close_junctions(every, settings.junction_gap)[:len(s) + len(bridged)]
+
+
 def _image_points(camera: CameraModel, pose: Pose, points) -> tuple[np.ndarray, np.ndarray]:
     """Pixels (P, 2) of world points (..., 3) [m] seen from sensor ``pose`` and (P,) True
     where in front of the camera and inside the image."""
@@ -91,26 +114,55 @@ def _region_at(regions, uv) -> np.ndarray:
     return out
 
 
+@dataclass(frozen=True)
+class HeardChecks:
+    """Check echoes: measured points (c, 3) [m] (world frame) and the sensor positions they were
+    measured from (c, 3) [m]."""
+
+    points: np.ndarray
+    viewpoints: np.ndarray
+
+
+def own_checks(scan: PoseScan) -> HeardChecks | None:
+    """The check echoes ``scan`` heard (None: it fired no check pings)."""
+    if scan.checks is None:
+        return None
+    heard = np.all(np.isfinite(scan.checks.points), axis=1)
+    return HeardChecks(scan.checks.points[heard],
+                       np.broadcast_to(scan.pose.translation, (int(heard.sum()), 3)))
+
+
+def heard_checks(scans) -> HeardChecks | None:
+    """The check echoes every scan of ``scans`` heard (None: none fired check pings)."""
+    own = [c for c in map(own_checks, scans) if c is not None]
+    if not own:
+        return None
+    return HeardChecks(np.concatenate([c.points for c in own]).reshape(-1, 3),
+                       np.concatenate([c.viewpoints for c in own]).reshape(-1, 3))
+
+
 def _support(scan: PoseScan, regions, groups: PlaneGroups, surfel_uv, surfel_group, pixels,
-             settings: SurfelSettings) -> np.ndarray | None:
-    """(..., G) True where the sonar evidence of ``scan``'s image supports growing each plane
-    at ``pixels`` (..., 2), None when the pose has no check pings (everything allowed).
+             settings: SurfelSettings, checks: HeardChecks | None) -> np.ndarray | None:
+    """(..., G) True where the sonar evidence supports growing each plane at ``pixels`` (..., 2)
+    of ``scan``'s image, None without check echoes (everything allowed).
 
     Evidence lives in pixels: every projected surfel point (``surfel_uv`` (P, 2), groups
-    ``surfel_group`` (P,)) confirms its group; a check ping confirms every group whose plane its
-    measured point lies on (within ``merge_sigmas`` expected errors,
+    ``surfel_group`` (P,)) confirms its group; a check echo (``checks``: of every pose, projected
+    into this image) confirms every group whose plane its measured point lies on (within
+    ``merge_sigmas`` expected errors from where it was measured,
     :func:`~mitsonar.recon.surfels.planes._point_sigma`) and refutes all others; pings without an
     echo say nothing. A pixel supports a group when its nearest evidence on that group in the
-    same region confirms it.
+    same region confirms it. Echoes heard from other poses count as this pose's own: a plane
+    hypothesis refuted by the pings of one pose (on varied_3, 33 of a pose's 37 check echoes on
+    the wall behind a cabinet lay on neither plane grown there) is refuted in every image.
     """
     from scipy.spatial import cKDTree
 
-    if scan.checks is None or len(groups) == 0:
+    if checks is None or len(groups) == 0:
         return None
-    checks = scan.checks
-    heard = np.all(np.isfinite(checks.points), axis=1)
-    c_uv, c_points = checks.pixels[heard], checks.points[heard]
-    on_plane = _on_planes(c_points, scan.pose.translation, groups, settings)
+    c_uv, seen = _image_points(scan.camera, scan.pose, checks.points)
+    c_uv, c_points = c_uv[seen], checks.points[seen]
+    on_plane = _on_planes(c_points, checks.viewpoints[seen][:, None], groups, settings)
     shape = np.shape(pixels)[:-1]
     px = np.asarray(pixels, dtype=float).reshape(-1, 2)
     # the region as a far-off third coordinate: evidence in another region is never nearest
@@ -141,6 +193,8 @@ class PoseMesh:
         vertices: (V, 3) [m]; triangles: (F, 3) vertex indices; plane: (F,) group per triangle.
         regions: (H, W) region labels (see :func:`region_labels`).
         region_groups: (R, G) surfel points of each group claiming each region.
+        hypotheses: (R, G) the same, counting also the lone surfels whose normal is too poorly
+            determined to claim (``max_normal_error``): planes the check pings may confirm.
         grid_pixels: (gv, gu, 2) the back-projected pixel grid [pixels].
         grid_plane: (gv, gu) plane grown at each grid pixel, -1 none.
         grid_points: (gv, gu, 3) its world point [m] (undefined where none).
@@ -151,23 +205,29 @@ class PoseMesh:
     plane: np.ndarray
     regions: np.ndarray
     region_groups: np.ndarray
+    hypotheses: np.ndarray
     grid_pixels: np.ndarray
     grid_plane: np.ndarray
     grid_points: np.ndarray
 
 
 def grow_planes(scan: PoseScan, segments, groups: PlaneGroups, surfel_points, settings:
-                SurfelSettings = SurfelSettings()) -> PoseMesh:
+                SurfelSettings = SurfelSettings(), checks: HeardChecks | None = None,
+                tentative: bool = False) -> PoseMesh:
     """Mesh of one pose: claimed regions back-projected onto their planes where the pose's
     sonar evidence supports them (package docstring).
 
     Args:
         segments: (n, 4) barrier segments [pixels] (the pose's segments minus shadow lines).
         groups: the plane groups; surfel_points: (k, 4, 3) points of the grouped surfels [m].
+        checks: the check echoes that confirm or refute the planes (:func:`heard_checks` of
+            every pose); None: ``scan``'s own (:func:`own_checks`).
+        tentative: grow the hypotheses too (:attr:`PoseMesh.hypotheses`: where check pings are
+            aimed), not only the planes that claim.
     """
     cam = scan.camera
     n_groups = len(groups)
-    regions = region_labels(close_junctions(segments, settings.junction_gap), scan.box,
+    regions = region_labels(barriers(segments, scan.box, settings), scan.box,
                             (cam.height, cam.width), settings.barrier_extension,
                             settings.barrier_width)
     projected = project_onto_plane(surfel_points, groups.normals[groups.label][:, None, :],
@@ -177,6 +237,7 @@ def grow_planes(scan: PoseScan, segments, groups: PlaneGroups, surfel_points, se
     where = _region_at(regions, uv[seen])
     claims = np.zeros((max(regions.max() + 1, 0), n_groups), dtype=int)
     np.add.at(claims, (where[where >= 0], group_of[seen][where >= 0]), 1)
+    hypotheses = claims.copy()
     lone = np.bincount(groups.label, minlength=n_groups) == 1
     claims[:, lone & (groups.normal_errors > settings.max_normal_error)] = 0
     s = settings.stride
@@ -192,8 +253,9 @@ def grow_planes(scan: PoseScan, segments, groups: PlaneGroups, surfel_points, se
     dist = t * np.linalg.norm(rays, axis=-1, keepdims=True)
     allowed = np.zeros(grid_r.shape + (n_groups,), dtype=bool)
     inside = grid_r >= 0
-    allowed[inside] = claims[grid_r[inside]] > 0
-    support = _support(scan, regions, groups, uv[seen], group_of[seen], pixels, settings)
+    allowed[inside] = (hypotheses if tentative else claims)[grid_r[inside]] > 0
+    support = _support(scan, regions, groups, uv[seen], group_of[seen], pixels, settings,
+                       own_checks(scan) if checks is None else checks)
     if support is not None:
         allowed &= support
     limit = np.inf if settings.max_range is None else settings.max_range
@@ -217,7 +279,7 @@ def grow_planes(scan: PoseScan, segments, groups: PlaneGroups, surfel_points, se
         faces.append(np.stack([ids[a][ok], ids[b][ok], ids[c][ok]], axis=-1))
         plane.append(best[:-1, :-1][ok] if a == 0 else best[:-1, 1:][ok])
     return PoseMesh(points[found], np.concatenate(faces).reshape(-1, 3),
-                    np.concatenate(plane).astype(int), regions, claims, pixels,
+                    np.concatenate(plane).astype(int), regions, claims, hypotheses, pixels,
                     np.where(found, best, -1), points)
 
 

@@ -40,6 +40,9 @@ class SurfelSettings:
         barrier_width: thickness of the drawn barriers [pixels].
         junction_gap: barrier segments that stop at most this short of a junction with another
             segment are extended to it [pixels] (:func:`~mitsonar.recon.lines.close_junctions`).
+        bridge_gap: collinear pieces of one line with gaps up to this fraction of the image
+            width between them are bridged in the barriers
+            (:func:`~mitsonar.recon.surfels.growing.barriers`).
         stride: grid step of the back-projected pixels [pixels].
         max_range: farthest back-projected map point from the camera [m]; None: the sonar's
             ``SonarConfig.max_range``, beyond which no check ping can confirm or refute a grown
@@ -60,6 +63,9 @@ class SurfelSettings:
         refine: refine the planes jointly with the crease constraints (package docstring).
         check_spacing: angular spacing of the check pings over the grown planes [rad] (0: no
             check pings, planes fill their claimed regions unchecked as in the paper).
+        min_refutations: a plane group is refuted (its surfels dropped) when at least this many
+            check echoes in the regions it claims lie on none of their planes and they outnumber
+            the echoes on it (:func:`~mitsonar.recon.surfels.map.refuted_groups`).
         range_sigma, angle_sigma: a point at range r seen at incidence theta is expected off
             its plane by sqrt(range_sigma^2 + (r tan(angle_sigma) sin(theta))^2) [m]: the echo's
             range belongs to a direction up to a fraction of the footprint off the beam axis
@@ -82,6 +88,7 @@ class SurfelSettings:
     barrier_extension: float = 4.0
     barrier_width: int = 3
     junction_gap: float = 25.0
+    bridge_gap: float = 0.25
     stride: int = 2
     max_range: float | None = None
     shadow_offset: float = 5.0
@@ -93,6 +100,7 @@ class SurfelSettings:
     max_fill: int = 8
     refine: bool = True
     check_spacing: float = np.radians(5.0)
+    min_refutations: int = 3
     range_sigma: float = 0.005
     angle_sigma: float = np.radians(1.0)
     crease_sigma: float = 1.0
@@ -105,7 +113,8 @@ class SurfelSettings:
         for name in ("fill_spacing", "fill_margin", "range_sigma", "angle_sigma", "crease_sigma",
                      "crease_gate"):
             check_positive(f"SurfelSettings.{name}", getattr(self, name))
-        for name in ("image_width", "spp", "barrier_width", "stride", "max_iterations"):
+        for name in ("image_width", "spp", "barrier_width", "stride", "max_iterations",
+                     "min_refutations"):
             value = getattr(self, name)
             if int(value) != value or value < 1:
                 raise ValueError(f"SurfelSettings.{name} must be a positive integer, got {value}")
@@ -121,6 +130,7 @@ class SurfelSettings:
         check_range("SurfelSettings.max_link_error [rad]", self.max_link_error, 0.0, np.pi / 2)
         check_range("SurfelSettings.barrier_extension [pixels]", self.barrier_extension, 0, np.inf)
         check_range("SurfelSettings.junction_gap [pixels]", self.junction_gap, 0, np.inf)
+        check_range("SurfelSettings.bridge_gap", self.bridge_gap, 0, np.inf)
         check_range("SurfelSettings.check_spacing [rad]", self.check_spacing, 0, np.pi / 2)
         if self.max_range is not None:
             check_positive("SurfelSettings.max_range [m]", self.max_range)
