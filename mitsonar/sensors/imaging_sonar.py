@@ -103,6 +103,11 @@ class Image:
         direction: (P, 3) unit arrival directions, sensor frame (from the receive origin).
         amplitude: (P,) image value at each point [Pa].
         snr: (P,) amplitude over the RMS noise envelope.
+        coherence: (P,) share of the channels' power one plane wave from each point's direction
+            explains (the trust criterion, :class:`~mitsonar.signal.imaging.ImagingSettings`
+            ``min_coherence``).
+        passed: cells of the field of view passing each rule in turn
+            (:class:`~mitsonar.signal.imaging.ImagePoints`).
         directions: (D, 3) the receive directions of the grid over the transmitted cone
             (:class:`~mitsonar.signal.imaging.ReceiveImager`; zeros in its corners).
         envelopes: (D, N) the image [Pa] (None unless asked for).
@@ -114,6 +119,8 @@ class Image:
     direction: np.ndarray
     amplitude: np.ndarray
     snr: np.ndarray
+    coherence: np.ndarray
+    passed: dict
     directions: np.ndarray
     envelopes: np.ndarray | None
     times: np.ndarray
@@ -182,9 +189,9 @@ class ImagingSonar:
             spectrum += sonar.synthesizer.groups_spectrum(sonar.echo_groups(part, cfg.pulse), n_rx)
         recording = sonar.synthesizer.recording(sonar.band.to_samples(spectrum), cfg.noise_rms,
                                                 seed=[seed, 1])
-        envelopes = self.imager.image(recording)
-        found: ImagePoints = self.imager.points(envelopes, recording.start_time,
+        envelopes, channels = self.imager.image(recording)
+        found: ImagePoints = self.imager.points(envelopes, channels, recording.start_time,
                                                 self.direct_image)
         return Image(pose, found.points, found.direction, found.amplitude, found.snr,
-                     self.imager.directions, envelopes if keep_envelopes else None,
-                     recording.times)
+                     found.coherence, found.passed, self.imager.directions,
+                     envelopes if keep_envelopes else None, recording.times)
