@@ -10,7 +10,8 @@ field of view through the receive array's side lobes, and predicting those needs
 (below). In direction cosines a beam's main lobe and side lobes have the same shape wherever it
 is steered (:mod:`mitsonar.physics.beampattern`), so the grid samples every beam alike. Points
 come from the directions inside the field of view only (``ArrayGeometry`` ``fov_horizontal`` x
-``fov_vertical``); the others are their neighbours and the side-lobe reference.
+``fov_vertical``), or a region of it (a sector); the others are their neighbours and the
+side-lobe reference.
 
 Image. Delay-and-sum (5) on the signal band and the matched filter (6), as
 :class:`~mitsonar.signal.receiver.EchoProcessor` forms one beam (the same steering phases, filter
@@ -90,7 +91,8 @@ import numpy as np
 from scipy.ndimage import maximum_filter1d
 
 from mitsonar.physics.array import ArrayGeometry
-from mitsonar.physics.beampattern import array_factor, in_fov
+from mitsonar.frames import fov_angles
+from mitsonar.physics.beampattern import array_factor
 from mitsonar.signal.band import Band, Recording
 from mitsonar.signal.cone import expected_blobs, peak_offsets, place
 from mitsonar.signal.detection import DetectionSettings, vertex
@@ -101,6 +103,8 @@ from mitsonar.validation import check_positive, check_range
 DIRECTION_BATCH = 256
 #: Candidate cells whose side-lobe levels are predicted together (bounds a (batch, D) array).
 CANDIDATE_BATCH = 1024
+#: The array's normal.
+BROADSIDE = np.array([0.0, 0.0, 1.0])
 
 
 @dataclass(frozen=True)
@@ -186,11 +190,14 @@ class ReceiveImager:
         guard_half_angle: the grid covers the cone of this half-angle about broadside [rad]
             (the transmission's; it must contain the field of view).
         settings: grid step and detection rule.
+        region: (h_min, h_max, v_min, v_max) field-of-view angles [rad] of the directions points
+            come from (:func:`~mitsonar.frames.fov_angles`); None: the whole field of view.
     """
 
     def __init__(self, geometry: ArrayGeometry, band: Band, speed_of_sound: float,
                  detection: DetectionSettings, noise_rms: float, transmit_centre,
-                 guard_half_angle: float, settings: ImagingSettings = ImagingSettings()):
+                 guard_half_angle: float, settings: ImagingSettings = ImagingSettings(),
+                 region: tuple | None = None):
         check_range("guard_half_angle [rad]", guard_half_angle, settings.step, np.radians(89))
         self.geometry = geometry
         self.band = band
@@ -211,8 +218,18 @@ class ReceiveImager:
                                    ).reshape(-1, 3)
         #: (D,) directions inside the guard disc, and the field of view's among them.
         self.valid = disc.ravel()
-        self.in_fov = self.valid & in_fov(np.where(self.valid[:, None], self.directions, 1.0),
-                                          geometry.fov_horizontal, geometry.fov_vertical)
+        h, v = geometry.fov_horizontal / 2, geometry.fov_vertical / 2
+        #: (h_min, h_max, v_min, v_max) [rad]: the field-of-view angles points come from.
+        self.region = (-h, h, -v, v) if region is None else tuple(float(a) for a in region)
+        if not (-h - 1e-9 <= self.region[0] < self.region[1] <= h + 1e-9
+                and -v - 1e-9 <= self.region[2] < self.region[3] <= v + 1e-9):
+            raise ValueError(f"region must be (h_min, h_max, v_min, v_max) [rad] in the field of "
+                             f"view, got {region}")
+        angle_h, angle_v = fov_angles(np.where(self.valid[:, None], self.directions, BROADSIDE))
+        #: (D,) the directions points come from: in the guard disc and the region.
+        self.in_fov = self.valid & (self.directions[:, 2] > 0) \
+            & (angle_h >= self.region[0] - 1e-9) & (angle_h <= self.region[1] + 1e-9) \
+            & (angle_v >= self.region[2] - 1e-9) & (angle_v <= self.region[3] + 1e-9)
         edge = np.zeros(self.shape, bool)
         edge[[0, -1], :] = edge[:, [0, -1]] = True
         if np.any(self.in_fov & edge.ravel()):
@@ -383,15 +400,15 @@ class ReceiveImager:
                               detection_snr: float | None = None) -> float:
         """Expected number of points per image of receiver noise alone (module docstring): the
         expected Euler characteristic of the excursion set above ``detection_snr`` (default: the
-        settings') times the RMS noise envelope, over the field of view and the listening window
+        settings') times the RMS noise envelope, over the region and the listening window
         (from the minimum range to the last of ``n_samples`` samples from ``start_time`` [s])."""
         snr = self.settings.detection_snr if detection_snr is None else detection_snr
         check_positive("detection_snr", snr)
         band, g = self.band, self.geometry
         first = np.mean(self._min_path[self.in_fov]) / self.c - start_time  # [s] from sample 0
         duration = (n_samples - 1) / band.sample_rate - first
-        h, v = np.tan(g.fov_horizontal / 2), np.tan(g.fov_vertical / 2)
-        corners = np.array([(-h, -v), (h, -v), (h, v), (-h, v), (-h, -v)])
+        h0, h1, v0, v1 = np.tan(self.region)
+        corners = np.array([(h0, v0), (h1, v0), (h1, v1), (h0, v1), (h0, v0)])
         steps = np.linspace(0.0, 1.0, 256, endpoint=False)[:, None, None]
         outline = (corners[:-1] + steps * (corners[1:] - corners[:-1])).transpose(1, 0, 2)
         outline = outline.reshape(-1, 2)  # tangents of the angles, around the field of view

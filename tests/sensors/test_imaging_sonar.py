@@ -57,6 +57,31 @@ def test_a_single_ping_finds_every_sphere_and_no_ghost(spheres):
         assert np.all(image.snr >= imaging.imager.settings.detection_snr)
 
 
+def test_sector_pings_place_every_sphere_from_the_virtual_source(spheres):
+    """'sectors': a frame of six pings, the array steered and defocused to each 20 x 20 deg
+    sector. Their points together reach every sphere within 1 cm of its surface (measured
+    <= 6.9 mm; the transmit leg measured from the virtual source, |x - v_s| - d_s: from the
+    transmit origin instead the path would be up to 1.6 cm off), each ping reporting only its
+    own sector (beyond it, lit through the side lobes, its echoes are placed up to 3.5 cm off);
+    a ghost is at most 10 % of them (measured: none)."""
+    imaging, centres, mesh = spheres
+    sectors = ImagingSonar(imaging.sonar, transmit=replace(FAST, transmit="sectors"))
+    assert sectors.pings_per_frame == 6 and len(sectors.imagers) == 6
+    images = [sectors.image(IDENTITY, seed=0, ping=ping) for ping in range(6)]
+    points = np.concatenate([image.points_sensor for image in images])
+    off_surface = np.linalg.norm(points[:, None] - centres[None], axis=-1) - RADIUS
+    assert np.all(np.abs(off_surface).min(axis=0) <= 1e-2), np.abs(off_surface).min(axis=0)
+    ghosts = point_to_mesh(np.concatenate([i.points_world for i in images]), mesh)[0] > 0.02
+    assert ghosts.mean() <= 0.10, (ghosts.sum(), len(points))
+    emission = sectors.emissions[4]  # fired as from its virtual source
+    distance = np.linalg.norm(imaging.sonar.config.geometry.tx_positions - emission.source,
+                              axis=1)
+    c = imaging.sonar.config.medium.speed_of_sound
+    np.testing.assert_allclose(emission.firing * c + emission.lead, distance, atol=1e-12)
+    with pytest.raises(ValueError, match="ping"):
+        sectors.image(IDENTITY, ping=6)
+
+
 def test_same_seed_same_image(spheres):
     imaging = spheres[0]
     first, again = imaging.image(IDENTITY, seed=5), imaging.image(IDENTITY, seed=5)
@@ -74,10 +99,10 @@ def test_an_empty_scene_gives_no_point(tmp_path):
     """Nothing in front (a wall behind the sensor): only the blanked cross-talk and noise."""
     path = write_scene(tmp_path / "behind.xml", material_xml("w", preset="drywall"),
                        rectangle_xml("w", (0, 0, -2.0)))
-    for transmit in ("element", "array"):
+    for transmit in ("element", "array", "sectors"):
         imaging = ImagingSonar(mitsonar.Sonar(path), transmit=replace(FAST, transmit=transmit))
         for seed in range(3):
-            assert len(imaging.image(IDENTITY, seed=seed)) == 0
+            assert len(imaging.image(IDENTITY, seed=seed, ping=seed % imaging.pings_per_frame)) == 0
 
 
 def test_one_element_reproduces_the_image_source_echo_of_a_wall(tmp_path):
