@@ -64,7 +64,7 @@ Points. A cell (direction d, sample k) inside the field of view is a point when
    hear several echoes at once (walls, floor, ceiling and furniture at the same path length,
    within the cone or beyond the field of view), and for 95 % of them the strongest direction
    explains under 30 % of the channels' power; those cells are within 2 cm of a surface 3-6 %
-   of the time, the few over 0.4 90-100 % of the time.
+   of the time, the few over 0.4 86-100 % of the time.
 
 Each point is placed as the receiver places a detection with its arrival direction: the
 direction refined between grid directions by a parabola through the image power along u_x and
@@ -90,8 +90,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.ndimage import maximum_filter1d
 
-from mitsonar.physics.array import ArrayGeometry
 from mitsonar.frames import fov_angles
+from mitsonar.physics.array import ArrayGeometry
 from mitsonar.physics.beampattern import array_factor
 from mitsonar.signal.band import Band, Recording
 from mitsonar.signal.cone import expected_blobs, peak_offsets, place
