@@ -59,10 +59,10 @@ def test_a_single_ping_finds_every_sphere_and_no_ghost(spheres):
 
 def test_sector_pings_place_every_sphere_from_the_virtual_source(spheres):
     """'sectors': a frame of six pings, the array steered and defocused to each 20 x 20 deg
-    sector. Their points together reach every sphere within 1 cm of its surface (measured
-    <= 6.9 mm; the transmit leg measured from the virtual source, |x - v_s| - d_s: from the
-    transmit origin instead the path would be up to 1.6 cm off), each ping reporting only its
-    own sector (beyond it, lit through the side lobes, its echoes are placed up to 3.5 cm off);
+    sector. Their points together reach every sphere within 1 cm of its surface, half of them
+    within 4 mm (measured 0.3-6.9 mm, median 1.3 mm, with the transmit leg from the virtual
+    source, |x - v_s| - d_s; from the transmit origin instead 5.1-8.1 mm, median 5.4 mm), each
+    ping reporting only its own sector (beyond it, lit through the side lobes, its echoes are placed up to 3.5 cm off);
     a ghost is at most 10 % of them (measured: none)."""
     imaging, centres, mesh = spheres
     sectors = ImagingSonar(imaging.sonar, transmit=replace(FAST, transmit="sectors"))
@@ -70,7 +70,8 @@ def test_sector_pings_place_every_sphere_from_the_virtual_source(spheres):
     images = [sectors.image(IDENTITY, seed=0, ping=ping) for ping in range(6)]
     points = np.concatenate([image.points_sensor for image in images])
     off_surface = np.linalg.norm(points[:, None] - centres[None], axis=-1) - RADIUS
-    assert np.all(np.abs(off_surface).min(axis=0) <= 1e-2), np.abs(off_surface).min(axis=0)
+    nearest = np.abs(off_surface).min(axis=0)
+    assert np.all(nearest <= 1e-2) and np.median(nearest) <= 4e-3, nearest
     ghosts = point_to_mesh(np.concatenate([i.points_world for i in images]), mesh)[0] > 0.02
     assert ghosts.mean() <= 0.10, (ghosts.sum(), len(points))
     emission = sectors.emissions[4]  # fired as from its virtual source
