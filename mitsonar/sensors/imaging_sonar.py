@@ -22,6 +22,13 @@ Transmission (``TransmitSettings.transmit``):
   adds coherently (25x); elsewhere its elements add with the phases of the sparse layout's
   array factor, a speckle-like pattern of lobes and nulls over the field of view (its side
   lobes, about 5x one element's amplitude on average): more energy, uneven illumination.
+* ``'sectors'``: every element, one sector of the field of view per ping: the array steered to
+  the sector's centre and defocused (each element fires when a spherical wave from a virtual
+  source ``virtual_source`` behind the transmit origin, on the sector's axis, would reach it),
+  so its beam widens from 4.6 deg to about the sector. The field of view is tiled by
+  ``sectors`` (3 x 2: 20 x 20 deg each); a frame is one ping per sector, one listening cycle
+  each. Fewer surfaces return echoes at any instant than under one element's beam, so more of
+  the cells pass the coherence rule (docs/imaging.md).
 
 Rays are traced over a cone of ``cone_half_angle`` (60 deg: the field of view's 34 deg
 half-diagonal plus the directions whose echoes reach it through the receive side lobes), with
@@ -35,7 +42,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from mitsonar.frames import Pose
+from mitsonar.frames import Pose, direction_from_fov_angles
 from mitsonar.sensors.sonar import Sonar
 from mitsonar.signal.imaging import ImagePoints, ImagingSettings, ReceiveImager
 from mitsonar.trace.tracer import AcousticTracer, TraceSettings
@@ -53,21 +60,32 @@ class TransmitSettings:
     """The wide transmission of an image and how it is traced.
 
     Attributes:
-        transmit: 'element' (the transmit element nearest the transmit origin) or 'array' (every
-            transmit element, unsteered).
+        transmit: 'element' (the transmit element nearest the transmit origin), 'array' (every
+            transmit element, unsteered) or 'sectors' (every element, steered and defocused to
+            one sector of the field of view per ping).
         cone_half_angle: half-angle of the traced cone around broadside [rad].
         rays_per_axis: rays per axis of the traced grid (physical model; the paper model places
             its reflectors ``paper_spacing`` apart instead).
+        sectors: sectors across the field of view, horizontally and vertically ('sectors').
+        virtual_source: distance [m] behind the transmit origin, on a sector's axis, of the
+            point the defocused wave diverges from ('sectors'; the beam's width is about the
+            aperture over it: 10 cm / 0.3 m, 19 deg).
     """
 
     transmit: str = "element"
     cone_half_angle: float = np.radians(60.0)
     rays_per_axis: int = 128
+    sectors: tuple = (3, 2)
+    virtual_source: float = 0.3
 
     def __post_init__(self):
-        if self.transmit not in ("element", "array"):
-            raise ValueError(f"TransmitSettings.transmit must be 'element' or 'array', "
-                             f"got {self.transmit!r}")
+        if self.transmit not in ("element", "array", "sectors"):
+            raise ValueError(f"TransmitSettings.transmit must be 'element', 'array' or "
+                             f"'sectors', got {self.transmit!r}")
+        if len(self.sectors) != 2 or any(int(n) != n or n < 1 for n in self.sectors):
+            raise ValueError(f"TransmitSettings.sectors must be two integers >= 1, "
+                             f"got {self.sectors}")
+        check_range("TransmitSettings.virtual_source [m]", self.virtual_source, 1e-3, 1e3)
         check_range("TransmitSettings.cone_half_angle [rad]", self.cone_half_angle, 1e-3,
                     np.radians(80))
         if int(self.rays_per_axis) != self.rays_per_axis or self.rays_per_axis < 4:
@@ -76,11 +94,35 @@ class TransmitSettings:
 
     def weights(self, tx_positions: np.ndarray) -> np.ndarray:
         """(N_tx,) amplitude weights of the transmit elements at ``tx_positions`` (N_tx, 3) [m]."""
-        if self.transmit == "array":
+        if self.transmit != "element":
             return np.ones(len(tx_positions))
         weights = np.zeros(len(tx_positions))
         weights[np.argmin(np.linalg.norm(tx_positions, axis=1))] = 1.0
         return weights
+
+    def emissions(self, geometry, speed_of_sound: float) -> list["Emission"]:
+        """The emission of each ping of a frame: one from the transmitting elements' centre
+        unless 'sectors'; then ping s (a ``sectors`` tiling of the field of view, row by row, a_s
+        the centre of its sector) fires element i at (|p_i - v_s| - d_s) / c, the time a
+        spherical wave from v_s = -``virtual_source`` a_s would reach it (d_s: the distance from
+        v_s to the nearest element, which fires at 0); its points come from its sector only
+        (beyond it, lit by the defocused array's side lobes, echoes do not keep that timing)."""
+        weights = self.weights(geometry.tx_positions)
+        if self.transmit != "sectors":
+            centre = np.abs(weights) @ geometry.tx_positions / np.sum(np.abs(weights))
+            return [Emission(centre, np.zeros(len(weights)), 0.0)]
+        n_h, n_v = self.sectors
+        h = geometry.fov_horizontal * (np.arange(n_h + 1) / n_h - 0.5)  # sector edges [rad]
+        v = geometry.fov_vertical * (np.arange(n_v + 1) / n_v - 0.5)
+        out = []
+        for j in range(n_v):  # a few sectors
+            for i in range(n_h):
+                axis = direction_from_fov_angles(0.5 * (h[i] + h[i + 1]), 0.5 * (v[j] + v[j + 1]))
+                source = -self.virtual_source * axis  # the transmit origin is the sensor's
+                distance = np.linalg.norm(geometry.tx_positions - source, axis=1)
+                out.append(Emission(source, (distance - distance.min()) / speed_of_sound,
+                                    float(distance.min()), (h[i], h[i + 1], v[j], v[j + 1])))
+        return out
 
     def trace_settings(self, trace: TraceSettings, weights: np.ndarray) -> TraceSettings:
         """``trace`` changed for this transmission: its cone, uniform rays (refined wherever
@@ -94,6 +136,27 @@ class TransmitSettings:
 
 
 @dataclass(frozen=True)
+class Emission:
+    """One ping's transmission: its wave leaves ``source`` as if from one point.
+
+    Attributes:
+        source: (3,) where the wave diverges from, sensor frame [m] (behind the array for
+            'sectors').
+        firing: (N_tx,) firing delay of each transmit element [s].
+        lead: the wave's path from ``source`` to where it is at time 0 [m]: the transmit leg of
+            an echo from x is |x - source| - lead.
+        region: (h_min, h_max, v_min, v_max) field-of-view angles [rad] of the directions the
+            ping reports points from, where it lights the scene as the emission says (its
+            sector); None: the whole field of view.
+    """
+
+    source: np.ndarray
+    firing: np.ndarray
+    lead: float
+    region: tuple | None = None
+
+
+@dataclass(frozen=True)
 class Image:
     """One single-ping image: its P points and, if kept, the image itself.
 
@@ -103,6 +166,11 @@ class Image:
         direction: (P, 3) unit arrival directions, sensor frame (from the receive origin).
         amplitude: (P,) image value at each point [Pa].
         snr: (P,) amplitude over the RMS noise envelope.
+        coherence: (P,) share of the channels' power one plane wave from each point's direction
+            explains (the trust criterion, :class:`~mitsonar.signal.imaging.ImagingSettings`
+            ``min_coherence``).
+        passed: cells of the field of view passing each rule in turn
+            (:class:`~mitsonar.signal.imaging.ImagePoints`).
         directions: (D, 3) the receive directions of the grid over the transmitted cone
             (:class:`~mitsonar.signal.imaging.ReceiveImager`; zeros in its corners).
         envelopes: (D, N) the image [Pa] (None unless asked for).
@@ -114,6 +182,8 @@ class Image:
     direction: np.ndarray
     amplitude: np.ndarray
     snr: np.ndarray
+    coherence: np.ndarray
+    passed: dict
     directions: np.ndarray
     envelopes: np.ndarray | None
     times: np.ndarray
@@ -151,40 +221,62 @@ class ImagingSonar:
         weights = transmit.weights(g.tx_positions)
         self.tracer = AcousticTracer(sonar.scene, g, cfg.transducer, cfg.medium, cfg.pulse,
                                      transmit.trace_settings(cfg.trace, weights))
-        centre = np.abs(weights) @ g.tx_positions / np.sum(np.abs(weights))
-        self.imager = ReceiveImager(g, sonar.band, cfg.medium.speed_of_sound, cfg.detection,
-                                    cfg.noise_rms, centre, transmit.cone_half_angle, settings)
-        # The direct path is the same in every image: its spectrum and image (blanking) once.
-        self._direct_spectrum = sonar.synthesizer.group_spectrum(
-            self.tracer.direct_paths(BROADSIDE), None, g.rx.count)
-        self.direct_image = self.imager.envelopes(self._direct_spectrum)
+        self._transmitting = weights != 0  # the elements the traced paths keep
+        #: The emission of each ping of a frame (one unless 'sectors').
+        self.emissions = transmit.emissions(g, cfg.medium.speed_of_sound)
+        self.imagers = [ReceiveImager(g, sonar.band, cfg.medium.speed_of_sound, cfg.detection,
+                                      cfg.noise_rms, e.source, transmit.cone_half_angle, settings,
+                                      e.region) for e in self.emissions]
+        self.imager = self.imagers[0]
+        # The direct path is the same in every frame: its spectrum per ping once, and for
+        # blanking the largest of their images.
+        direct = self.tracer.direct_paths(BROADSIDE)
+        n_rx = g.rx.count
+        self._direct_spectra = [sonar.synthesizer.group_spectrum(
+            replace(direct, delay=direct.delay + np.repeat(e.firing[self._transmitting], n_rx)),
+            None, n_rx) for e in self.emissions]
+        self.direct_image = np.max([self.imager.envelopes(d) for d in self._direct_spectra],
+                                   axis=0)
 
     @property
     def cycle_time(self) -> float:
         """Time one image takes the sensor: the listening cycle, ``record_duration`` [s]."""
         return self.sonar.config.record_duration
 
-    def image(self, pose: Pose, seed: int = 0, keep_envelopes: bool = False) -> Image:
+    @property
+    def pings_per_frame(self) -> int:
+        """Pings of a frame, one per listening cycle: one per sector ('sectors'), else one."""
+        return len(self.emissions)
+
+    def image(self, pose: Pose, seed: int = 0, keep_envelopes: bool = False,
+              ping: int = 0) -> Image:
         """Transmit once from ``pose`` (world-from-sensor) and image the recording.
 
         Args:
             pose: the sensor's pose.
             seed: seeds the diffuse phases and the receiver noise (same seed, same image).
             keep_envelopes: keep the image itself (D x N values) in :attr:`Image.envelopes`.
+            ping: which ping of a frame (its sector with 'sectors'), in [0, pings_per_frame).
         """
+        if not (int(ping) == ping and 0 <= ping < self.pings_per_frame):
+            raise ValueError(f"ping must be an integer in [0, {self.pings_per_frame}), got {ping}")
         sonar, cfg = self.sonar, self.sonar.config
         paths = self.tracer.trace(pose, BROADSIDE, seed=seed).paths
+        emission, imager = self.emissions[ping], self.imagers[ping]
+        paths = replace(paths, tx_delay=paths.tx_delay + emission.firing[self._transmitting])
         n_rx = cfg.geometry.rx.count
-        spectrum = self._direct_spectrum.copy()
+        spectrum = self._direct_spectra[ping].copy()
         hits = max(1, PATH_BATCH // (paths.elements[0] * n_rx))
         for first in range(0, len(paths.tx_delay), hits):  # bounded batches of element pairs
             part = paths.select(slice(first, first + hits))
             spectrum += sonar.synthesizer.groups_spectrum(sonar.echo_groups(part, cfg.pulse), n_rx)
         recording = sonar.synthesizer.recording(sonar.band.to_samples(spectrum), cfg.noise_rms,
                                                 seed=[seed, 1])
-        envelopes = self.imager.image(recording)
-        found: ImagePoints = self.imager.points(envelopes, recording.start_time,
-                                                self.direct_image)
+        envelopes, channels = imager.image(recording)
+        # Sample 0 lies lead / c later on the wave from the emission's source.
+        found: ImagePoints = imager.points(envelopes, channels, recording.start_time
+                                           + emission.lead / cfg.medium.speed_of_sound,
+                                           self.direct_image)
         return Image(pose, found.points, found.direction, found.amplitude, found.snr,
-                     self.imager.directions, envelopes if keep_envelopes else None,
-                     recording.times)
+                     found.coherence, found.passed, imager.directions,
+                     envelopes if keep_envelopes else None, recording.times)

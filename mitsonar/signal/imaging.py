@@ -10,7 +10,8 @@ field of view through the receive array's side lobes, and predicting those needs
 (below). In direction cosines a beam's main lobe and side lobes have the same shape wherever it
 is steered (:mod:`mitsonar.physics.beampattern`), so the grid samples every beam alike. Points
 come from the directions inside the field of view only (``ArrayGeometry`` ``fov_horizontal`` x
-``fov_vertical``); the others are their neighbours and the side-lobe reference.
+``fov_vertical``), or a region of it (a sector); the others are their neighbours and the
+side-lobe reference.
 
 Image. Delay-and-sum (5) on the signal band and the matched filter (6), as
 :class:`~mitsonar.signal.receiver.EchoProcessor` forms one beam (the same steering phases, filter
@@ -49,9 +50,21 @@ Points. A cell (direction d, sample k) inside the field of view is a point when
      RMS; clutter alone exceeds it with probability exp(-clutter_margin^2) per cell (1.2e-4 at
      the default 3).
 
-   The clutter rule sets how many points a ping gives: measured on the shipped rooms, a few per
-   ping with narrow-band 40 kHz echoes, whose side lobes do not average out over frequency
-   (docs/imaging.md).
+5. its direction is trusted: one plane wave from it explains at least ``min_coherence`` of the
+   receive channels' power at that instant, the coherence factor N_rx image(d, k)^2 /
+   sum_j |x_j|^2 with x_j channel j's matched-filter envelope read at sample k plus its delay
+   (5) towards d (linearly interpolated between samples; one arrival: 1, a side lobe of a
+   return from d0: about |AF(d; d0)|^2, several arrivals at once: the strongest one's share of
+   their power). On receiver noise alone a cell at s times the RMS noise envelope has coherence
+   about s^2 / N_rx, so the rule asks noise for an SNR of sqrt(min_coherence N_rx) (3.2 with the
+   defaults): below ``detection_snr``, it leaves the design false-alarm rate unchanged.
+
+   Measured on the shipped rooms (docs/imaging.md): a ping's recording holds a few hundred
+   range peaks that are the peak of their main lobe, but at nearly every instant the channels
+   hear several echoes at once (walls, floor, ceiling and furniture at the same path length,
+   within the cone or beyond the field of view), and for 95 % of them the strongest direction
+   explains under 30 % of the channels' power; those cells are within 2 cm of a surface 3-6 %
+   of the time, the few over 0.4 86-100 % of the time.
 
 Each point is placed as the receiver places a detection with its arrival direction: the
 direction refined between grid directions by a parabola through the image power along u_x and
@@ -77,8 +90,9 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.ndimage import maximum_filter1d
 
+from mitsonar.frames import fov_angles
 from mitsonar.physics.array import ArrayGeometry
-from mitsonar.physics.beampattern import array_factor, in_fov
+from mitsonar.physics.beampattern import array_factor
 from mitsonar.signal.band import Band, Recording
 from mitsonar.signal.cone import expected_blobs, peak_offsets, place
 from mitsonar.signal.detection import DetectionSettings, vertex
@@ -89,6 +103,8 @@ from mitsonar.validation import check_positive, check_range
 DIRECTION_BATCH = 256
 #: Candidate cells whose side-lobe levels are predicted together (bounds a (batch, D) array).
 CANDIDATE_BATCH = 1024
+#: The array's normal.
+BROADSIDE = np.array([0.0, 0.0, 1.0])
 
 
 @dataclass(frozen=True)
@@ -105,6 +121,8 @@ class ImagingSettings:
             at the same instant that a point must exceed.
         clutter_margin: factor over the RMS of the image over the grid at the same instant that a
             point must exceed.
+        min_coherence: fraction in [0, 1] of the receive channels' power at a point's instant
+            that one plane wave from its direction must explain (module docstring, rule 5).
     """
 
     step: float = np.radians(2.0)
@@ -112,6 +130,7 @@ class ImagingSettings:
     detection_floor: float = 0.0
     side_lobe_margin: float = 2.0
     clutter_margin: float = 3.0
+    min_coherence: float = 0.4
 
     def __post_init__(self):
         check_range("ImagingSettings.step [rad]", self.step, 1e-3, np.radians(10))
@@ -120,6 +139,9 @@ class ImagingSettings:
             value = getattr(self, name)
             if not (np.isfinite(value) and value >= 0):
                 raise ValueError(f"ImagingSettings.{name} must be >= 0, got {value}")
+        if not 0 <= self.min_coherence <= 1:
+            raise ValueError(f"ImagingSettings.min_coherence must be in [0, 1], "
+                             f"got {self.min_coherence}")
 
 
 @dataclass(frozen=True)
@@ -132,7 +154,12 @@ class ImagePoints:
         path_length: (P,) transmit centre -> reflector -> receive origin [m].
         amplitude: (P,) image value at the point [Pa].
         snr: (P,) amplitude over the RMS noise envelope.
+        coherence: (P,) share of the channels' power that one plane wave from the point's grid
+            direction explains (rule 5).
         cell: (P, 2) grid direction and sample of each point's cell.
+        passed: cells of the field of view that pass each rule in turn (1-5 of the module
+            docstring): 'threshold', 'range_peak', 'main_lobe_peak', 'side_lobe', 'clutter',
+            'trusted' (the points).
     """
 
     points: np.ndarray
@@ -140,7 +167,9 @@ class ImagePoints:
     path_length: np.ndarray
     amplitude: np.ndarray
     snr: np.ndarray
+    coherence: np.ndarray
     cell: np.ndarray
+    passed: dict
 
     def __len__(self) -> int:
         return len(self.points)
@@ -161,11 +190,14 @@ class ReceiveImager:
         guard_half_angle: the grid covers the cone of this half-angle about broadside [rad]
             (the transmission's; it must contain the field of view).
         settings: grid step and detection rule.
+        region: (h_min, h_max, v_min, v_max) field-of-view angles [rad] of the directions points
+            come from (:func:`~mitsonar.frames.fov_angles`); None: the whole field of view.
     """
 
     def __init__(self, geometry: ArrayGeometry, band: Band, speed_of_sound: float,
                  detection: DetectionSettings, noise_rms: float, transmit_centre,
-                 guard_half_angle: float, settings: ImagingSettings = ImagingSettings()):
+                 guard_half_angle: float, settings: ImagingSettings = ImagingSettings(),
+                 region: tuple | None = None):
         check_range("guard_half_angle [rad]", guard_half_angle, settings.step, np.radians(89))
         self.geometry = geometry
         self.band = band
@@ -186,8 +218,18 @@ class ReceiveImager:
                                    ).reshape(-1, 3)
         #: (D,) directions inside the guard disc, and the field of view's among them.
         self.valid = disc.ravel()
-        self.in_fov = self.valid & in_fov(np.where(self.valid[:, None], self.directions, 1.0),
-                                          geometry.fov_horizontal, geometry.fov_vertical)
+        h, v = geometry.fov_horizontal / 2, geometry.fov_vertical / 2
+        #: (h_min, h_max, v_min, v_max) [rad]: the field-of-view angles points come from.
+        self.region = (-h, h, -v, v) if region is None else tuple(float(a) for a in region)
+        if not (-h - 1e-9 <= self.region[0] < self.region[1] <= h + 1e-9
+                and -v - 1e-9 <= self.region[2] < self.region[3] <= v + 1e-9):
+            raise ValueError(f"region must be (h_min, h_max, v_min, v_max) [rad] in the field of "
+                             f"view, got {region}")
+        angle_h, angle_v = fov_angles(np.where(self.valid[:, None], self.directions, BROADSIDE))
+        #: (D,) the directions points come from: in the guard disc and the region.
+        self.in_fov = self.valid & (self.directions[:, 2] > 0) \
+            & (angle_h >= self.region[0] - 1e-9) & (angle_h <= self.region[1] + 1e-9) \
+            & (angle_v >= self.region[2] - 1e-9) & (angle_v <= self.region[3] + 1e-9)
         edge = np.zeros(self.shape, bool)
         edge[[0, -1], :] = edge[:, [0, -1]] = True
         if np.any(self.in_fov & edge.ravel()):
@@ -262,15 +304,23 @@ class ReceiveImager:
             out[batch] = np.abs(self.band.to_analytic(beams[batch] * self._filter))
         return out
 
-    def image(self, recording: Recording) -> np.ndarray:
-        """Image (D, N) [Pa] of a recording (:meth:`envelopes` of its spectra)."""
-        return self.envelopes(self.band.band_spectra(recording.samples))
+    def image(self, recording: Recording) -> tuple[np.ndarray, np.ndarray]:
+        """(image (D, N) [Pa], channel envelopes (N_rx, N) [Pa]) of a recording
+        (:meth:`envelopes` and :meth:`channel_envelopes` of its spectra)."""
+        spectra = self.band.band_spectra(recording.samples)
+        return self.envelopes(spectra), self.channel_envelopes(spectra)
 
-    def points(self, image: np.ndarray, start_time: float,
+    def channel_envelopes(self, spectra: np.ndarray) -> np.ndarray:
+        """(N_rx, N) [Pa], float32: each receive channel's matched-filter envelope, on the
+        image's scale (one plane wave: every channel's envelope equals its beam's), of channel
+        spectra on the band (N_rx, nb)."""
+        return np.abs(self.band.to_analytic(spectra * self._filter)).astype(np.float32)
+
+    def points(self, image: np.ndarray, channels: np.ndarray, start_time: float,
                direct_image: np.ndarray | None = None) -> ImagePoints:
-        """The points of an image (D, N) [Pa] whose sample 0 is ``start_time`` [s] after the
-        transmission (module docstring); ``direct_image`` (D, N): the image of the direct path
-        alone, for blanking."""
+        """The points of an image (D, N) [Pa] and its channel envelopes (N_rx, N) [Pa]
+        (:meth:`image`), sample 0 ``start_time`` [s] after the transmission (module docstring);
+        ``direct_image`` (D, N): the image of the direct path alone, for blanking."""
         s, fs = self.settings, self.band.sample_rate
         fov = self._fov_rows
         sub = image[fov]
@@ -280,23 +330,51 @@ class ReceiveImager:
             else np.maximum(self.threshold, self.detection.blanking_margin * direct_image[fov])
         window = path[None, :] >= self._min_path[fov, None]
         window[:, [0, -1]] = False
+        above = (sub > level) & window
+        passed = {"threshold": int(above.sum())}
         peaks = sub >= maximum_filter1d(sub, 2 * self._range_window + 1, axis=1, mode="constant")
-        row, k = np.nonzero((sub > level) & window & peaks)
+        row, k = np.nonzero(above & peaks)
+        passed["range_peak"] = len(row)
         value = sub[row, k]
         keep = value >= image[self._lobe[row], k[:, None]].max(axis=1, initial=0.0)
         row, k, value = row[keep], k[keep], value[keep]
+        passed["main_lobe_peak"] = len(row)
+        keep = value > s.side_lobe_margin * self._side_lobe_levels(image, row, k)
+        row, k, value = row[keep], k[keep], value[keep]
+        passed["side_lobe"] = len(row)
         # RMS over the grid at each instant (rows outside the guard disc are 0), (N,).
         clutter = np.sqrt(np.einsum("dn,dn->n", image, image, dtype=float) / self.valid.sum())
-        keep = (value > s.side_lobe_margin * self._side_lobe_levels(image, row, k)) \
-            & (value > s.clutter_margin * clutter[k])
+        keep = value > s.clutter_margin * clutter[k]
         row, k, value = row[keep], k[keep], value[keep].astype(float)
+        passed["clutter"] = len(row)
         d = fov[row]
+        coherence = self.coherence(channels, value, d, k)
+        keep = coherence >= s.min_coherence
+        d, k, value, coherence = d[keep], k[keep], value[keep], coherence[keep]
+        passed["trusted"] = len(d)
         apparent = self.directions[d, :2] + self.spacing * self._peak_offsets(image, d, k)
         sample = k + vertex(image[d, k - 1], value, image[d, k + 1])
         length = self.c * (start_time + sample / fs)
         points, arrival = place(self.geometry, self._transmit_centre, length, apparent)
         snr = value / self.noise_level if self.noise_level > 0 else np.full(len(value), np.inf)
-        return ImagePoints(points, arrival, length, value, snr, np.stack([d, k], axis=1))
+        return ImagePoints(points, arrival, length, value, snr, coherence,
+                           np.stack([d, k], axis=1), passed)
+
+    def coherence(self, channels: np.ndarray, value: np.ndarray, d: np.ndarray,
+                  k: np.ndarray) -> np.ndarray:
+        """(P,) share of the channels' power at cells (grid direction d, sample k) that one plane
+        wave from d explains: N_rx value^2 / sum_j x_j^2, ``value`` (P,) the image there [Pa],
+        x_j the channel envelopes (N_rx, N) read at k plus their delays (5) towards d, linearly
+        interpolated (1 for a single arrival; NaN where the channels are silent)."""
+        offsets = self.geometry.rx_positions - self.geometry.rx_origin
+        late = k[:, None] - (self.directions[d] @ offsets.T) * self.band.sample_rate / self.c
+        first = np.clip(np.floor(late).astype(np.int64), 0, channels.shape[1] - 2)
+        fraction = np.clip(late - first, 0.0, 1.0)
+        element = np.arange(len(offsets))
+        x = channels[element, first] * (1 - fraction) + channels[element, first + 1] * fraction
+        total = np.sum(x.astype(float) ** 2, axis=1)
+        return np.divide(len(offsets) * value**2, total, out=np.full(len(value), np.nan),
+                         where=total > 0)
 
     def _peak_offsets(self, image: np.ndarray, d: np.ndarray, k: np.ndarray) -> np.ndarray:
         """(P, 2) offsets [grid steps] along u_x and u_y of the main-lobe peaks around grid
@@ -322,15 +400,15 @@ class ReceiveImager:
                               detection_snr: float | None = None) -> float:
         """Expected number of points per image of receiver noise alone (module docstring): the
         expected Euler characteristic of the excursion set above ``detection_snr`` (default: the
-        settings') times the RMS noise envelope, over the field of view and the listening window
+        settings') times the RMS noise envelope, over the region and the listening window
         (from the minimum range to the last of ``n_samples`` samples from ``start_time`` [s])."""
         snr = self.settings.detection_snr if detection_snr is None else detection_snr
         check_positive("detection_snr", snr)
         band, g = self.band, self.geometry
         first = np.mean(self._min_path[self.in_fov]) / self.c - start_time  # [s] from sample 0
         duration = (n_samples - 1) / band.sample_rate - first
-        h, v = np.tan(g.fov_horizontal / 2), np.tan(g.fov_vertical / 2)
-        corners = np.array([(-h, -v), (h, -v), (h, v), (-h, v), (-h, -v)])
+        h0, h1, v0, v1 = np.tan(self.region)
+        corners = np.array([(h0, v0), (h1, v0), (h1, v1), (h0, v1), (h0, v0)])
         steps = np.linspace(0.0, 1.0, 256, endpoint=False)[:, None, None]
         outline = (corners[:-1] + steps * (corners[1:] - corners[:-1])).transpose(1, 0, 2)
         outline = outline.reshape(-1, 2)  # tangents of the angles, around the field of view

@@ -57,6 +57,26 @@ def test_a_single_ping_finds_every_sphere_and_no_ghost(spheres):
         assert np.all(image.snr >= imaging.imager.settings.detection_snr)
 
 
+def test_sector_pings_fire_as_from_their_virtual_sources(spheres):
+    """'sectors': six pings a frame, each element of ping s fired when a spherical wave from its
+    virtual source v_s would reach it; each ping's imager reports its own sector, placing from
+    v_s (the placement itself: tests/signal/test_imaging.py)."""
+    imaging = spheres[0]
+    sectors = ImagingSonar(imaging.sonar, transmit=replace(FAST, transmit="sectors"))
+    assert sectors.pings_per_frame == 6 and len(sectors.imagers) == 6
+    geometry = imaging.sonar.config.geometry
+    c = imaging.sonar.config.medium.speed_of_sound
+    for emission, imager in zip(sectors.emissions, sectors.imagers):
+        distance = np.linalg.norm(geometry.tx_positions - emission.source, axis=1)
+        np.testing.assert_allclose(emission.firing * c + emission.lead, distance, atol=1e-12)
+        assert emission.firing.min() == 0 and imager.region == emission.region
+    regions = np.array([e.region for e in sectors.emissions])  # 3 x 2 sectors of 20 x 20 deg
+    np.testing.assert_allclose(np.degrees(regions[:, 1] - regions[:, 0]), 20.0)
+    np.testing.assert_allclose(np.degrees(regions[:, 3] - regions[:, 2]), 20.0)
+    with pytest.raises(ValueError, match="ping"):
+        sectors.image(IDENTITY, ping=6)
+
+
 def test_same_seed_same_image(spheres):
     imaging = spheres[0]
     first, again = imaging.image(IDENTITY, seed=5), imaging.image(IDENTITY, seed=5)
@@ -74,10 +94,10 @@ def test_an_empty_scene_gives_no_point(tmp_path):
     """Nothing in front (a wall behind the sensor): only the blanked cross-talk and noise."""
     path = write_scene(tmp_path / "behind.xml", material_xml("w", preset="drywall"),
                        rectangle_xml("w", (0, 0, -2.0)))
-    for transmit in ("element", "array"):
+    for transmit in ("element", "array", "sectors"):
         imaging = ImagingSonar(mitsonar.Sonar(path), transmit=replace(FAST, transmit=transmit))
         for seed in range(3):
-            assert len(imaging.image(IDENTITY, seed=seed)) == 0
+            assert len(imaging.image(IDENTITY, seed=seed, ping=seed % imaging.pings_per_frame)) == 0
 
 
 def test_one_element_reproduces_the_image_source_echo_of_a_wall(tmp_path):
