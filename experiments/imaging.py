@@ -149,8 +149,7 @@ def sonar_for(path: Path, preset: str, settings: RunSettings) -> mitsonar.Sonar:
     config = mitsonar.SonarConfig.preset(preset)
     trace = config.trace if settings.rays_per_axis is None else \
         replace(config.trace, rays_per_axis=settings.rays_per_axis)
-    return mitsonar.Sonar(path, replace(config, trace=trace,
-                                        detection=replace(config.detection, echoes="cells")))
+    return mitsonar.Sonar(path, replace(config, trace=trace).with_detection(echoes="cells"))
 
 
 def sequential_frame(sonar, pose_at, grid, start: float, seed: int) -> dict:

@@ -299,9 +299,8 @@ class ReceiveImager:
         beams = np.matmul(self._along_y, weighted).reshape(len(spectra.T), -1).T  # (D, nb)
         out = np.zeros((len(beams), self.band.n_samples), np.float32)
         rows = np.flatnonzero(self.valid)
-        for first in range(0, len(rows), DIRECTION_BATCH):  # bounded inverse FFTs
-            batch = rows[first: first + DIRECTION_BATCH]
-            out[batch] = np.abs(self.band.to_analytic(beams[batch] * self._filter))
+        out[rows] = self.band.envelopes(beams[rows], self._filter, batch=DIRECTION_BATCH,
+                                        dtype=np.float32)  # bounded inverse FFTs
         return out
 
     def image(self, recording: Recording) -> tuple[np.ndarray, np.ndarray]:
@@ -314,7 +313,7 @@ class ReceiveImager:
         """(N_rx, N) [Pa], float32: each receive channel's matched-filter envelope, on the
         image's scale (one plane wave: every channel's envelope equals its beam's), of channel
         spectra on the band (N_rx, nb)."""
-        return np.abs(self.band.to_analytic(spectra * self._filter)).astype(np.float32)
+        return self.band.envelopes(spectra, self._filter, dtype=np.float32)
 
     def points(self, image: np.ndarray, channels: np.ndarray, start_time: float,
                direct_image: np.ndarray | None = None) -> ImagePoints:
