@@ -336,14 +336,19 @@ class EchoSynthesizer:
                                    * (abs(omega) + fs * (hw + 1) * inv_var))
         if len(paths) == 0 or scale is None or last <= -hw or first >= band.n_samples + hw:
             return np.zeros((n_channels, band.n_grid), dtype=np.complex64)
-        u = (paths.centre + (paths.offset - band.start_time)) * fs
+        # The values that change from beam to beam and frame to frame (firing offset, fixed-point
+        # scale, window) are variables, not literals: literals would make each a new kernel,
+        # compiled anew (and missed in Dr.Jit's disk cache) for every beam of every frame.
+        u = (paths.centre + dr.opaque(Float64, paths.offset - band.start_time)) \
+            * dr.opaque(Float64, fs)
         (a_re, a_im), (b_re, b_im) = paths.gain, paths.first_order
         first, last = max(first, -hw), min(last, band.n_samples + hw)
         origin, width = self._window(first, last)
-        gains = (Float64(a_re) * scale, Float64(a_im) * scale)
-        first_order = (Float64(b_re) * scale, Float64(b_im) * scale, dr.opaque(Float64, omega))
-        acc = _spread_kernel()(n_channels * width, u, Int64(paths.channel) * width - origin,
-                               gains, first_order,
+        factor = dr.opaque(Float64, scale)
+        gains = (Float64(a_re) * factor, Float64(a_im) * factor)
+        first_order = (Float64(b_re) * factor, Float64(b_im) * factor, dr.opaque(Float64, omega))
+        row = Int64(paths.channel) * dr.opaque(Int64, width) - dr.opaque(Int64, origin)
+        acc = _spread_kernel()(n_channels * width, u, row, gains, first_order,
                                dr.opaque(Float64, band.shift_bin / band.n_grid), hw, inv_var,
                                fs * inv_var, (u > -hw) & (u < band.n_samples + hw))
         return _folded(acc, scale, n_channels, band.n_grid, origin)
