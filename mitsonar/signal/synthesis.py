@@ -50,8 +50,8 @@ GRID_REDUCE = "Expand"
 #: Drive spectra kept by a synthesizer (~1 MB each).
 DRIVES_KEPT = 64
 #: Codes' system responses kept by :func:`code_response` for every synthesizer of the process
-#: (~50 kB each).
-RESPONSES_KEPT = 1024
+#: (~54 kB each; a 117-beam frame asks for ~80).
+RESPONSES_KEPT = 256
 
 _responses: dict = {}
 
