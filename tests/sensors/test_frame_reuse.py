@@ -1,6 +1,7 @@
 """A second Sonar (same or another scene) and later frames reuse what the first frame of the
-process built: Dr.Jit's frozen kernels (module level: no new recording, no kernel compiled) and
-the OFDM codes' system responses (kept per value, not per synthesizer)."""
+process built: Dr.Jit's kernels (no kernel the process has not launched, so none to compile),
+the frozen functions' recordings (module level) and the OFDM codes' system responses (kept per
+value, not per synthesizer)."""
 
 import drjit as dr
 import numpy as np
@@ -12,6 +13,7 @@ from mitsonar.frames import direction_from_fov_angles
 from mitsonar.scene.xml import material_xml, sphere_xml
 from mitsonar.sensors.ofdm_sonar import OfdmSonar
 from mitsonar.signal import synthesis
+from mitsonar.signal.band import Band
 from mitsonar.signal.synthesis import _pair_kernel, _spread_kernel, code_response
 from mitsonar.trace.element_factors import _kernel as _factors_kernel
 from mitsonar.trace.hitpaths import _merge_kernel
@@ -81,8 +83,8 @@ def test_code_response_is_computed_once_for_equal_bands(scene_file, monkeypatch)
     frequencies = np.linspace(39e3, 41e3, 37) + np.pi  # a grid no other test asks for
     expected = bands[0].system_response(code, frequencies)
     calls = []
-    original = mitsonar.signal.band.Band.system_response
-    monkeypatch.setattr(mitsonar.signal.band.Band, "system_response",
+    original = Band.system_response
+    monkeypatch.setattr(Band, "system_response",
                         lambda band, *args: calls.append(band) or original(band, *args))
     responses = [code_response(band, code, frequencies) for band in bands]
     assert len(calls) == 1
