@@ -6,7 +6,8 @@ perpendicular range, whichever way the beam points. It reaches the beam through 
 side lobe, merged with the weak diffuse echo of the footprint, and the side-lobe check rightly
 rejects it *for that beam's direction*: placed on the beam it would be wrong. The receive array
 still measures where it came from. With ``off_beam``, the strongest candidate of a beam whose
-every candidate failed (``echoes`` = "first") is examined again where it arrives from:
+every candidate failed (``echoes`` = "first"; with "all", a beam left without any echo) is
+examined again where it arrives from:
 
 1. the direction of the side-lobe check's grid (``ghost_grid_step``, +-``ghost_half_span``)
    where the narrow-band delay-and-sum power at its instant, summed over the looks, is largest
