@@ -300,7 +300,9 @@ class EchoProcessor:
         if s.off_beam and looks is not None:
             if s.echoes == "all":  # each beam's strongest candidate, before any check
                 strongest = candidates(envelopes, window & loud & balanced, 1)[:2]
-            moved = offbeam.recover(self, window & balanced, threshold, u, looks, beams, strongest)
+            crosstalk = self._crosstalk(u, waves, transmit)[0] if shared else None
+            moved = offbeam.recover(self, window & balanced, threshold, u, looks, beams, strongest,
+                                    envelopes, crosstalk)
         return placement.report(self, envelopes, threshold, window, start_time, transmit, u,
                                 waves, looks, beams, samples, cells, apparent, moved)
 
