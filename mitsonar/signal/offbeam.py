@@ -25,7 +25,7 @@ examined again where it arrives from:
    wall's mirror echo on the beam facing it) leaks into every code's decoded envelope from
    that beam's direction, fails each beam's side-lobe check, and without this test would be
    re-placed there with the wrong code's firing time, up to a slot spacing of the cycle off in
-   range (measured: 4-190 cm, tests/signal/test_offbeam.py);
+   range (measured: up to 1.9 m, tests/recon/test_repeated_offbeam.py);
 5. then, as every echo: the arrival direction refined within ``ghost_exclusion`` of that
    direction, kept where one plane wave from it explains ``min_coherence`` of the channels'
    power and it lies in the field of view, placed by the bistatic depth (7) along it
