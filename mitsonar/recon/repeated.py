@@ -18,6 +18,12 @@ them (docs/imaging.md): with the ``paper`` preset "all" and "cells" give ~2x the
 same accuracy; with broadband transducers on a rough wall the direction-trust test drops
 speckle echoes that the first-echo path keeps (tests/recon/test_voxelmap.py), so the default
 stays "first".
+
+Off-beam echoes (``off_beam``, on by default with "first" and "all"): a beam whose every echo
+fails the side-lobe check gets its strongest one where it arrives from, e.g. a smooth wall's
+mirror echo seen a few degrees off its normal, which the physical sonar otherwise loses
+(docs/incidence.md; :mod:`mitsonar.signal.offbeam`, which also rejects the other codes'
+cross-talk of an OFDM cycle).
 """
 
 from __future__ import annotations
