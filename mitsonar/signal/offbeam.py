@@ -93,12 +93,12 @@ def recover(processor, allowed, threshold, u, looks, found, strongest, envelopes
     beams, samples, centre = beams[keep], samples[keep], centre[keep]
     samples, level, loud = steered_peaks(processor, looks, threshold, allowed, beams, samples,
                                          centre)
-    if crosstalk is not None:
-        leak = cross_talk(processor, looks, crosstalk, beams[loud], samples[loud], centre[loud],
-                          threshold.shape[1])
-        loud[loud] = level[loud] > processor.settings.clutter_margin * leak
-    beams, samples, centre = beams[loud], samples[loud], centre[loud]
+    beams, samples, centre, level = beams[loud], samples[loud], centre[loud], level[loud]
     passed = sidelobe.passes(beamformer, looks, centre, beams, samples, np.arange(len(beams)))
+    if crosstalk is not None:  # the last test: the dearest
+        leak = cross_talk(processor, looks, crosstalk, beams[passed], samples[passed],
+                          centre[passed], threshold.shape[1])
+        passed[passed] = level[passed] > processor.settings.clutter_margin * leak
     return Recovered(beams[passed], samples[passed], centre[passed])
 
 
