@@ -105,9 +105,13 @@ def tilted_footprint(config, level: float = 2 ** -0.5) -> np.ndarray:
     return TILT_DISTANCE * side / (side + np.cos(half)) / np.cos(TILT)
 
 
+#: Half the edge of ``side_plate``'s square plate [m].
+SIDE_PLATE_HALF = 0.4
+
+
 def side_plate(scene_file):
-    """The scene of a smooth 40 cm metal plate facing the sensor 1.5 m away, 20 deg to the side
-    (``scene_file``: the conftest fixture)."""
+    """The scene of a smooth 80 cm square metal plate facing the sensor 1.5 m away, 20 deg to
+    the side (it spans 5-35 deg; ``scene_file``: the conftest fixture)."""
     from mitsonar.frames import direction_from_fov_angles
     from mitsonar.scene.xml import material_xml, spanned_rectangle_xml
 
@@ -116,4 +120,4 @@ def side_plate(scene_file):
     across = np.cross([0.0, 1.0, 0.0], normal)
     return scene_file("plate", material_xml("m", preset="metal", scattering=0.0),
                       spanned_rectangle_xml("m", centre, across, np.cross(normal, across),
-                                            (0.4, 0.4)))
+                                            (SIDE_PLATE_HALF, SIDE_PLATE_HALF)))

@@ -18,6 +18,12 @@ them (docs/imaging.md): with the ``paper`` preset "all" and "cells" give ~2x the
 same accuracy; with broadband transducers on a rough wall the direction-trust test drops
 speckle echoes that the first-echo path keeps (tests/recon/test_voxelmap.py), so the default
 stays "first".
+
+Off-beam echoes (``off_beam``, on by default with "first" and "all"): a beam whose every echo
+fails the side-lobe check gets its strongest one where it arrives from, e.g. a smooth wall's
+mirror echo seen a few degrees off its normal, which the physical sonar otherwise loses
+(docs/incidence.md; :mod:`mitsonar.signal.offbeam`, which also rejects the other codes'
+cross-talk of an OFDM cycle).
 """
 
 from __future__ import annotations
@@ -31,7 +37,7 @@ from mitsonar.frames import Pose
 from mitsonar.sensors.ofdm_sonar import Frame, OfdmSonar, pose_along
 from mitsonar.sensors.sonar import Sonar
 from mitsonar.sensors.trajectory import Trajectory
-from mitsonar.signal.detection import ECHO_MODES
+from mitsonar.signal.detection import ECHO_MODES, OFF_BEAM_MODES, DetectionSettings
 from mitsonar.validation import check_positive
 from mitsonar.recon.voxelmap import VoxelMap, VoxelMapSettings, colourise
 
@@ -60,6 +66,9 @@ class RepeatedMapSpec:
             frame, as the paper).
         echoes: the echoes of each beam that become points (``DetectionSettings.echoes``:
             "first", "all", "cells" or "image"; module docstring); it replaces the sonar's own setting.
+        off_beam: re-place echoes that the side-lobe check rejects where they arrive from
+            (``DetectionSettings.off_beam``; module docstring); None: on where ``echoes`` and
+            the sonar's side-lobe check and arrival directions allow it ("first", "all").
         seed: seeds every frame's noise and diffuse phases.
     """
 
@@ -72,6 +81,7 @@ class RepeatedMapSpec:
     voxels: VoxelMapSettings = VoxelMapSettings()
     registration: str = "beam"
     echoes: str = "first"
+    off_beam: bool | None = None
     seed: int = 0
 
     def __post_init__(self):
@@ -88,6 +98,16 @@ class RepeatedMapSpec:
         if self.echoes not in ECHO_MODES:
             raise ValueError(f"RepeatedMapSpec.echoes must be one of {', '.join(ECHO_MODES)}, "
                              f"got {self.echoes!r}")
+        if self.off_beam and self.echoes not in OFF_BEAM_MODES:
+            raise ValueError(f"RepeatedMapSpec.off_beam needs echoes in {OFF_BEAM_MODES}, got "
+                             f"{self.echoes!r}")
+
+    def detection(self, settings: DetectionSettings) -> DetectionSettings:
+        """The sonar's detection ``settings`` with this map's ``echoes`` and ``off_beam``."""
+        usable = self.echoes in OFF_BEAM_MODES and settings.ghost_margin > 0 \
+            and settings.arrival_step > 0
+        off_beam = usable if self.off_beam is None else self.off_beam
+        return replace(settings, echoes=self.echoes, off_beam=off_beam)
 
 
 @dataclass(frozen=True)
@@ -111,7 +131,7 @@ def scan_repeated(sonar: Sonar, trajectory: Trajectory, spec: RepeatedMapSpec = 
     with an image each: ``spec.frames`` of them, or every frame that starts within the first
     ``spec.duration`` [s] (default: the whole trajectory). ``progress`` is called with (frame
     index, number of frames) after each."""
-    detection = replace(sonar.config.detection, echoes=spec.echoes)
+    detection = spec.detection(sonar.config.detection)
     ofdm = OfdmSonar(Sonar(sonar.scene, replace(sonar.config, detection=detection)))
     schedule = ofdm.schedule(sonar.fov_grid(spec.scan_step))
     interval = schedule.frame_duration if spec.interval is None else spec.interval

@@ -16,6 +16,8 @@ from mitsonar.validation import check_positive
 
 #: The settings of :attr:`DetectionSettings.echoes`.
 ECHO_MODES = ("first", "all", "cells", "image")
+#: The ``echoes`` modes that can re-place off-beam echoes (``DetectionSettings.off_beam``).
+OFF_BEAM_MODES = ("first", "all")
 
 
 @dataclass(frozen=True)
@@ -63,11 +65,13 @@ class DetectionSettings:
             broadside [rad] (sin(image_step) in direction cosines).
         image_half_angle: "image": half-angle of the cone imaged around each beam's axis [rad]
             (default 3 deg: the steered transmit beam's -6 dB half-width at 40 kHz is 3.1 deg).
-        off_beam: "first": a beam whose every candidate fails the side-lobe check gets its
-            strongest one re-placed where it arrives from, when that is outside the beam's main
-            lobe, inside the field of view and trusted (``min_coherence``), flagged in
+        off_beam: "first" or "all": a beam without an accepted echo (every candidate failed
+            the side-lobe check, or with "all" the clutter test) gets its strongest candidate
+            re-placed where it arrives from, when that is inside the field of view, passes the
+            side-lobe check there and is trusted (``min_coherence``), flagged in
             :class:`Echoes` (e.g. a smooth wall's specular echo from the foot of the
-            perpendicular; :mod:`mitsonar.signal.offbeam`). Off by default.
+            perpendicular; :mod:`mitsonar.signal.offbeam`). Off by default; repeated-mode
+            maps turn it on (:class:`~mitsonar.recon.repeated.RepeatedMapSpec`).
     """
 
     detection_snr: float = 5.0
@@ -95,10 +99,11 @@ class DetectionSettings:
         if self.echoes == "cells" and not self.arrival_step > 0:
             raise ValueError("DetectionSettings.echoes = 'cells' needs arrival directions "
                              "(arrival_step [rad] > 0)")
-        if self.off_beam and not (self.echoes == "first" and self.ghost_margin > 0
+        if self.off_beam and not (self.echoes in OFF_BEAM_MODES and self.ghost_margin > 0
                                   and self.arrival_step > 0):
-            raise ValueError("DetectionSettings.off_beam needs echoes = 'first', the side-lobe "
-                             "check (ghost_margin > 0) and arrival directions (arrival_step > 0)")
+            raise ValueError("DetectionSettings.off_beam needs echoes = 'first' or 'all', the "
+                             "side-lobe check (ghost_margin > 0) and arrival directions "
+                             "(arrival_step > 0)")
         if not 0 <= self.min_coherence <= 1:
             raise ValueError(f"DetectionSettings.min_coherence must be in [0, 1], "
                              f"got {self.min_coherence}")

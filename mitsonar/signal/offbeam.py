@@ -6,7 +6,8 @@ perpendicular range, whichever way the beam points. It reaches the beam through 
 side lobe, merged with the weak diffuse echo of the footprint, and the side-lobe check rightly
 rejects it *for that beam's direction*: placed on the beam it would be wrong. The receive array
 still measures where it came from. With ``off_beam``, the strongest candidate of a beam whose
-every candidate failed (``echoes`` = "first") is examined again where it arrives from:
+every candidate failed (``echoes`` = "first"; with "all", a beam left without any echo) is
+examined again where it arrives from:
 
 1. the direction of the side-lobe check's grid (``ghost_grid_step``, +-``ghost_half_span``)
    where the narrow-band delay-and-sum power at its instant, summed over the looks, is largest
@@ -18,7 +19,14 @@ every candidate failed (``echoes`` = "first") is examined again where it arrives
    mirror direction the specular echo dominates, and the diffuse echo of the footprint, which
    arrives later, no longer pulls the peak;
 3. the side-lobe check again, now for that direction;
-4. then, as every echo: the arrival direction refined within ``ghost_exclusion`` of that
+4. in a recording shared by several codes (an OFDM cycle), its re-read level must exceed
+   ``clutter_margin`` times what the other codes' echoes leave there through the codes'
+   cross-correlation |X| (:func:`cross_talk`). A strong echo of another code of the cycle (a
+   wall's mirror echo on the beam facing it) leaks into every code's decoded envelope from
+   that beam's direction, fails each beam's side-lobe check, and without this test would be
+   re-placed there with the wrong code's firing time, up to a slot spacing of the cycle off in
+   range (measured: up to 1.9 m, tests/recon/test_repeated_offbeam.py);
+5. then, as every echo: the arrival direction refined within ``ghost_exclusion`` of that
    direction, kept where one plane wave from it explains ``min_coherence`` of the channels'
    power and it lies in the field of view, placed by the bistatic depth (7) along it
    (:func:`mitsonar.signal.placement.report`).
@@ -54,8 +62,9 @@ class Recovered:
     centre: np.ndarray
 
 
-def recover(processor, allowed, threshold, u, looks, found, strongest) -> Recovered:
-    """Off-beam echoes (module docstring, steps 1-3) of the B beams not in ``found`` (their
+def recover(processor, allowed, threshold, u, looks, found, strongest, envelopes,
+            crosstalk=None) -> Recovered:
+    """Off-beam echoes (module docstring, steps 1-4) of the B beams not in ``found`` (their
     indices: the beams with an accepted echo).
 
     Args:
@@ -67,6 +76,10 @@ def recover(processor, allowed, threshold, u, looks, found, strongest) -> Recove
         found: the beams with an accepted echo.
         strongest: (beams, samples) of every beam's strongest candidate (over ``threshold``
             where ``allowed``; :func:`~mitsonar.signal.sidelobe.strongest_echoes`).
+        envelopes: (B, N) the beams' decoded envelopes along their axes [Pa].
+        crosstalk: in a recording shared by the B beams, |X| (K, K, 2 S + 1) of an echo of
+            kind k' decoded for kind k at lags -S..S
+            (:class:`~mitsonar.signal.multiecho.Clutter`); None: a recording per beam.
     """
     beamformer = processor.beamformer
     beams, samples = strongest
@@ -78,9 +91,14 @@ def recover(processor, allowed, threshold, u, looks, found, strongest) -> Recove
     g = processor.geometry
     keep = in_fov(centre, g.fov_horizontal, g.fov_vertical)
     beams, samples, centre = beams[keep], samples[keep], centre[keep]
-    samples, loud = steered_peaks(processor, looks, threshold, allowed, beams, samples, centre)
-    beams, samples, centre = beams[loud], samples[loud], centre[loud]
+    samples, level, loud = steered_peaks(processor, looks, threshold, allowed, beams, samples,
+                                         centre)
+    beams, samples, centre, level = beams[loud], samples[loud], centre[loud], level[loud]
     passed = sidelobe.passes(beamformer, looks, centre, beams, samples, np.arange(len(beams)))
+    if crosstalk is not None:  # the last test: the dearest
+        leak = cross_talk(processor, looks, crosstalk, beams[passed], samples[passed],
+                          centre[passed], threshold.shape[1])
+        passed[passed] = level[passed] > processor.settings.clutter_margin * leak
     return Recovered(beams[passed], samples[passed], centre[passed])
 
 
@@ -100,12 +118,12 @@ def grid_power(beamformer, looks, beams, samples) -> np.ndarray:
 
 
 def steered_peaks(processor, looks, threshold, allowed, beams, samples, centre):
-    """(samples (E,), loud (E,)): each candidate's instant re-read on its beam's envelope
-    steered to ``centre`` (E, 3): the strongest sample within the waveform's range resolution
-    of ``samples``; ``loud`` where that is over ``threshold`` (B, N), ``allowed`` (B, N) and not
-    on the edge of the span searched (a peak of its own)."""
+    """(samples (E,), level (E,) [Pa], loud (E,)): each candidate's instant re-read on its
+    beam's envelope steered to ``centre`` (E, 3): the strongest sample within the waveform's
+    range resolution of ``samples``, and its level; ``loud`` where that is over ``threshold``
+    (B, N), ``allowed`` (B, N) and not on the edge of the span searched (a peak of its own)."""
     if not len(beams):
-        return samples, np.zeros(0, bool)
+        return samples, np.zeros(0), np.zeros(0, bool)
     waves = looks.waves
     kind = waves.kind[beams]
     spectra = looks.spectra[beams] if looks.per_beam else looks.spectra[0]
@@ -121,8 +139,33 @@ def steered_peaks(processor, looks, threshold, allowed, beams, samples, centre):
     best = np.argmax(values, axis=1)
     new = samples + offsets[best]
     edge = np.abs(offsets[best]) == reach
-    loud = ~edge & (steered[rows[:, 0], new] > threshold[beams, new]) & allowed[beams, new]
-    return new, loud
+    level = steered[rows[:, 0], new]
+    loud = ~edge & (level > threshold[beams, new]) & allowed[beams, new]
+    return new, level, loud
+
+
+def cross_talk(processor, looks, crosstalk, beams, samples, centre, n) -> np.ndarray:
+    """(E,) the most that the other codes of a shared recording leave at ``samples`` (E,) of
+    ``beams`` (E,) steered to ``centre`` (E, 3) [Pa]: every other beam's code decoded on the
+    envelope steered there (where it hears an echo from that direction at full gain), times
+    |X| (``crosstalk`` (K, K, 2 S + 1), :class:`~mitsonar.signal.multiecho.Clutter`) at every
+    lag -S..S; ``n`` samples per envelope."""
+    waves = looks.waves
+    kinds = len(waves.kinds)
+    span = crosstalk.shape[-1] // 2
+    lags = np.arange(-span, span + 1)
+    steered = processor.beamformer.beamformed(looks.spectra[0], centre)  # (E, nb), one recording
+    envelopes = processor.band.envelopes(np.repeat(steered, kinds, axis=0),
+                                         np.tile(waves.filters, (len(beams), 1)), n)
+    envelopes = envelopes.reshape(len(beams), kinds, n)
+    at = samples[:, None] - lags  # (E, L) the other code's echo, where its own filter peaks
+    inside = ((at >= 0) & (at < n))[:, None, :]
+    every = np.arange(kinds)
+    source = np.where(inside, envelopes[np.arange(len(beams))[:, None, None], every[None, :, None],
+                                        np.clip(at, 0, n - 1)[:, None, :]], 0.0)  # (E, K, L)
+    leak = source * crosstalk[waves.kind[beams]][:, :, lags + span]  # |X| (E, K, L)
+    others = every[None, :] != waves.kind[beams][:, None]  # every code but its own
+    return np.where(others[:, :, None], leak, 0.0).max(axis=(1, 2), initial=0.0)
 
 
 def trusted(coherence, arrival, geometry: ArrayGeometry,

@@ -64,8 +64,8 @@ Order and choices:
 * Receive images over each beam's lit cone (``echoes`` = "image", :mod:`mitsonar.signal.cone`):
   echoes and range cells chosen on where each beam's cone image peaks, checked and placed at
   that direction; reported as "cells" are.
-* Off-beam echoes (``off_beam``, "first"): a beam's echo rejected by the side-lobe check is
-  re-placed where it arrives from, flagged (:mod:`mitsonar.signal.offbeam`).
+* Off-beam echoes (``off_beam``, "first" or "all"): a beam without an accepted echo gets its
+  strongest candidate re-placed where it arrives from, flagged (:mod:`mitsonar.signal.offbeam`).
 
 This module orchestrates the chain (envelopes, part balance, thresholds and window, the choice
 of echoes by ``echoes``, clutter); the steps live by concept: :mod:`~mitsonar.signal.looks`
@@ -84,7 +84,8 @@ from mitsonar.physics.array import ArrayGeometry
 from mitsonar.signal.band import Band, Recording
 from mitsonar.signal.beamforming import Beamformer, dot
 from mitsonar.signal import cone, multiecho, offbeam, placement, sidelobe
-from mitsonar.signal.detection import Detection, Detections, DetectionSettings, local_maxima
+from mitsonar.signal.detection import (Detection, Detections, DetectionSettings, candidates,
+                                       local_maxima)
 from mitsonar.signal.looks import Looks, Waveforms
 
 #: Cross-talk between the waveforms of one recording is followed out to the lags where their
@@ -288,9 +289,6 @@ class EchoProcessor:
             beams, samples, strongest = sidelobe.strongest_echoes(
                 self.beamformer, looks, envelopes, window & loud & balanced, u)
             cells = (np.zeros(0, np.int64),) * 2
-            if s.off_beam and looks is not None:
-                moved = offbeam.recover(self, window & balanced, threshold, u, looks, beams,
-                                        strongest)
         else:
             clutter, resolution = self._clutter(u, waves, transmit if shared else None)
             if s.echoes == "image":
@@ -299,6 +297,12 @@ class EchoProcessor:
             else:
                 beams, samples, cells = self._every_echo(envelopes, loud, window, balanced, u,
                                                          looks, clutter, resolution)
+        if s.off_beam and looks is not None:
+            if s.echoes == "all":  # each beam's strongest candidate, before any check
+                strongest = candidates(envelopes, window & loud & balanced, 1)[:2]
+            crosstalk = self._crosstalk(u, waves, transmit)[0] if shared else None
+            moved = offbeam.recover(self, window & balanced, threshold, u, looks, beams, strongest,
+                                    envelopes, crosstalk)
         return placement.report(self, envelopes, threshold, window, start_time, transmit, u,
                                 waves, looks, beams, samples, cells, apparent, moved)
 
