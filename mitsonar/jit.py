@@ -90,26 +90,3 @@ def to_jit(array_type, values):
     aligned = raw[start: start + values.size * dtype.itemsize].view(dtype)
     aligned.reshape(values.shape)[...] = values  # one pass: gathers strided views, converts
     return array_type(aligned)
-
-
-def concat(arrays):
-    """The flat Dr.Jit arrays ``arrays`` (one type) end to end, as ``drjit.concat`` joins them,
-    by kernels that do not depend on the parts' sizes: ``drjit.concat`` writes each part at its
-    offset as a literal, so every new size (a beam's patch count) made a new kernel, compiled
-    anew. Here each element gathers from its part, the parts' bounds variables (a lazy result,
-    fused into the kernel that uses it)."""
-    import drjit as dr
-
-    arrays = list(arrays)
-    if len(arrays) == 1:
-        return arrays[0]
-    kind = type(arrays[0])
-    index = dr.uint32_array_t(kind)
-    widths = [dr.width(a) for a in arrays]
-    starts = [dr.opaque(index, int(start)) for start in np.cumsum(widths)[:-1]]
-    i = dr.arange(index, sum(widths))
-    result = dr.gather(kind, arrays[0], i, active=i < starts[0])
-    for part, start in zip(arrays[1:], starts):
-        inside = i >= start
-        result = dr.select(inside, dr.gather(kind, part, i - start, active=inside), result)
-    return result

@@ -49,26 +49,6 @@ from mitsonar.trace.paths import Paths
 GRID_REDUCE = "Expand"
 #: Drive spectra kept by a synthesizer (~1 MB each).
 DRIVES_KEPT = 64
-#: Codes' system responses kept by :func:`code_response` for every synthesizer of the process
-#: (~54 kB each; a 117-beam frame asks for ~80).
-RESPONSES_KEPT = 256
-
-_responses: dict = {}
-
-
-def code_response(band: Band, waveform, frequencies) -> np.ndarray:
-    """``band.system_response(waveform, frequencies)`` (:meth:`Band.system_response`), kept per
-    (waveform, frequencies, reference rate, transducer) for the whole process: the direct sum
-    over a code's samples costs ~0.3 s per code and every cycle of a frame fires codes again,
-    and a new Sonar (a new synthesizer) on the same settings asks for the same ones."""
-    frequencies = np.asarray(frequencies, dtype=float)
-    key = (waveform, frequencies.tobytes(), band.reference_rate, band.transducer,
-           band.transducer_response)
-    if key not in _responses:
-        if len(_responses) >= RESPONSES_KEPT:
-            _responses.clear()
-        _responses[key] = band.system_response(waveform, frequencies)
-    return _responses[key]
 
 
 def _spread(acc, pos, row, gain, first_order, rotation, half_width: int, inv_var: float,
@@ -336,19 +316,14 @@ class EchoSynthesizer:
                                    * (abs(omega) + fs * (hw + 1) * inv_var))
         if len(paths) == 0 or scale is None or last <= -hw or first >= band.n_samples + hw:
             return np.zeros((n_channels, band.n_grid), dtype=np.complex64)
-        # The values that change from beam to beam and frame to frame (firing offset, fixed-point
-        # scale, window) are variables, not literals: literals would make each a new kernel,
-        # compiled anew (and missed in Dr.Jit's disk cache) for every beam of every frame.
-        u = (paths.centre + dr.opaque(Float64, paths.offset - band.start_time)) \
-            * dr.opaque(Float64, fs)
+        u = (paths.centre + (paths.offset - band.start_time)) * fs
         (a_re, a_im), (b_re, b_im) = paths.gain, paths.first_order
         first, last = max(first, -hw), min(last, band.n_samples + hw)
         origin, width = self._window(first, last)
-        factor = dr.opaque(Float64, scale)
-        gains = (Float64(a_re) * factor, Float64(a_im) * factor)
-        first_order = (Float64(b_re) * factor, Float64(b_im) * factor, dr.opaque(Float64, omega))
-        row = Int64(paths.channel) * dr.opaque(Int64, width) - dr.opaque(Int64, origin)
-        acc = _spread_kernel()(n_channels * width, u, row, gains, first_order,
+        gains = (Float64(a_re) * scale, Float64(a_im) * scale)
+        first_order = (Float64(b_re) * scale, Float64(b_im) * scale, dr.opaque(Float64, omega))
+        acc = _spread_kernel()(n_channels * width, u, Int64(paths.channel) * width - origin,
+                               gains, first_order,
                                dr.opaque(Float64, band.shift_bin / band.n_grid), hw, inv_var,
                                fs * inv_var, (u > -hw) & (u < band.n_samples + hw))
         return _folded(acc, scale, n_channels, band.n_grid, origin)
@@ -453,7 +428,7 @@ class EchoSynthesizer:
             band = self.band
             spectra = []
             for w in waveforms:  # the cycle's codes
-                response = code_response(band, w, frequencies)
+                response = band.system_response(w, frequencies)
                 floor = band.floor * np.abs(band.system_spectrum(w)).max()
                 spectra.append(np.where(np.abs(response) > floor, response, 0.0))
             phases = np.exp(-2j * np.pi * np.asarray(delays)[:, :, None] * frequencies)

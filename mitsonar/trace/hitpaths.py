@@ -23,7 +23,7 @@ from functools import cache, cached_property
 import drjit as dr
 import numpy as np
 
-from mitsonar.jit import backend, concat, to_jit
+from mitsonar.jit import backend, to_jit
 from mitsonar.trace.paths import Paths
 
 
@@ -215,7 +215,7 @@ class HitPaths:
         element = (thread[None, :] * group + np.arange(group)[:, None]).ravel()
 
         def joined(k: int):
-            return concat([out[k] for out in outputs]) if group > 1 else outputs[0][k]
+            return dr.concat([out[k] for out in outputs]) if group > 1 else outputs[0][k]
 
         centre = to_jit(Float64, (self.rx_delay + tx_mean).ravel()[element]) \
             + Float64(joined(0))
@@ -271,15 +271,12 @@ class MergedHits:
             return parts[0]
 
         def joined(arrays):
-            return concat(arrays)
-
-        # Offsets as variables, not literals (a kernel each otherwise; see _merged_grid).
-        offset = [dr.opaque(backend().Float64, p.offset) for p in parts]
+            return dr.concat(list(arrays))
 
         starts = np.cumsum([0] + [len(p) for p in parts[:-1]])
         return cls(tuple(joined(p.gain[k] for p in parts) for k in range(2)),
                    tuple(joined(p.first_order[k] for p in parts) for k in range(2)),
-                   joined(p.centre + o for p, o in zip(parts, offset)),
+                   joined(p.centre + p.offset for p in parts),
                    joined(p.channel for p in parts),
                    np.concatenate([p.element + start for p, start in zip(parts, starts)]),
                    parts[0].frequency, max(p.receivers for p in parts),
