@@ -14,10 +14,17 @@ arrays come at whatever alignment the allocator gave them, so a kernel fed strai
 is compiled anew for many combinations of its inputs' alignments (up to 2^inputs variants, up to
 seconds each for a large kernel). :func:`to_jit` copies through an aligned buffer, so each kernel
 compiles once and is then reused (and loaded from Dr.Jit's disk cache in later runs).
+
+Frozen kernels. :func:`freeze` wraps ``drjit.freeze`` so that Python's garbage collector does
+not run while a frozen function records or replays: a collection there frees Dr.Jit variables
+of unrelated objects in the middle of the recording, and the process aborted inside the frozen
+pair kernel with the collector running (an intermittent crash of the test suite).
 """
 
 from __future__ import annotations
 
+import functools
+import gc
 import os
 
 import numpy as np
@@ -90,3 +97,22 @@ def to_jit(array_type, values):
     aligned = raw[start: start + values.size * dtype.itemsize].view(dtype)
     aligned.reshape(values.shape)[...] = values  # one pass: gathers strided views, converts
     return array_type(aligned)
+
+
+def freeze(function, **options):
+    """``drjit.freeze(function, **options)``, called with Python's garbage collector paused
+    (module docstring: Frozen kernels)."""
+    import drjit as dr
+    frozen = dr.freeze(function, **options)
+
+    @functools.wraps(function)
+    def call(*args, **kwargs):
+        collecting = gc.isenabled()
+        gc.disable()
+        try:
+            return frozen(*args, **kwargs)
+        finally:
+            if collecting:
+                gc.enable()
+
+    return call

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import gc
 import subprocess
 import sys
 
@@ -53,3 +54,20 @@ def test_the_variant_cannot_change_once_mitsuba_runs():
     jit.set_variant("llvm_ad_rgb")  # the same one is fine
     with pytest.raises(ValueError, match="unknown Mitsuba variant"):
         jit.set_variant("llvm_rgb")
+
+
+def test_frozen_kernels_run_with_the_garbage_collector_paused():
+    """jit.freeze: the function records with Python's collector off (a collection during a
+    recording aborted the process), gives the frozen result, and restores the collector."""
+    seen = []
+
+    def double(x):
+        seen.append(gc.isenabled())
+        return x * 2
+
+    frozen = jit.freeze(double)
+    Float = jit.backend().Float32
+    assert gc.isenabled()
+    result = frozen(Float([1.0, 2.0, 3.0]))
+    assert seen == [False] and gc.isenabled()
+    assert list(result.numpy()) == [2.0, 4.0, 6.0]

@@ -33,7 +33,7 @@ from functools import cache
 import numpy as np
 import scipy.fft as sfft
 
-from mitsonar.jit import backend, to_jit
+from mitsonar.jit import backend, freeze, to_jit
 from mitsonar.physics.waveforms import phasor
 from mitsonar.signal.band import Band, Recording
 from mitsonar.trace.hitpaths import HitPaths, MergedHits, pair_gain
@@ -127,7 +127,7 @@ def _spread_kernel():
 
     # One recording per grid size and kernel shape (a few per synthesizer; sessions that build
     # several synthesizers, e.g. fidelity levels and OFDM, make dozens): not a re-tracing fault.
-    return dr.freeze(spread, warn_after=256)
+    return freeze(spread, warn_after=256)
 
 
 @cache
@@ -164,7 +164,7 @@ def _pair_kernel():
                     active=(pos > -half_width) & (pos < n_samples + half_width))
         return acc
 
-    return dr.freeze(spread_pairs, warn_after=256)
+    return freeze(spread_pairs, warn_after=256)
 
 
 def _fixed_point_scale(peak: float) -> float | None:

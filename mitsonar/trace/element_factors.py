@@ -17,7 +17,7 @@ from math import factorial
 
 import numpy as np
 
-from mitsonar.jit import backend, to_jit
+from mitsonar.jit import backend, freeze, to_jit
 
 
 @dataclass(frozen=True)
@@ -110,7 +110,7 @@ def _kernel():
         return (delay, dr.select(ok, s_re, 0.0), dr.select(ok, s_im, 0.0), cos, sinc1, sinc2,
                 g_re * lambert, g_im * lambert)
 
-    return dr.freeze(factors)
+    return freeze(factors)
 
 
 def element_factors(points, normals, edges, elements, element_gain, ka: float,

@@ -23,7 +23,7 @@ from functools import cache, cached_property
 import drjit as dr
 import numpy as np
 
-from mitsonar.jit import backend, to_jit
+from mitsonar.jit import backend, freeze, to_jit
 from mitsonar.trace.paths import Paths
 
 
@@ -354,7 +354,7 @@ def _merge_kernel():
             outputs.append(tuple(out))
         return outputs
 
-    return dr.freeze(merge)
+    return freeze(merge)
 
 
 def pair_gain(tx_values, rx_values):
