@@ -99,6 +99,18 @@ def _register(scans, shadow, refuted=None):
     return pose_ids, index, points, view, extra
 
 
+def _heard_claims(scan, mesh, groups: PlaneGroups, settings: SurfelSettings):
+    """A pose's heard check echoes: points (c, 3) [m], the groups claiming each one's image
+    region (c, G) bool, and those of them whose plane it lies on (c, G) bool
+    (:func:`~mitsonar.recon.surfels.planes._on_planes`)."""
+    heard = np.all(np.isfinite(scan.checks.points), axis=1)
+    points = scan.checks.points[heard]
+    region = _region_at(mesh.regions, scan.checks.pixels[heard])
+    claimed = np.zeros((len(points), len(groups)), dtype=bool)
+    claimed[region >= 0] = mesh.hypotheses[region[region >= 0]] > 0
+    return points, claimed, claimed & _on_planes(points, scan.pose.translation, groups, settings)
+
+
 def _check_points(scans, meshes, groups: PlaneGroups, settings: SurfelSettings):
     """Check-ping points that join the plane fits: points (c, 3) [m], group (c,) and the
     sensor position they were measured from (c, 3) [m]. A check point joins the nearest plane
@@ -108,12 +120,7 @@ def _check_points(scans, meshes, groups: PlaneGroups, settings: SurfelSettings):
     for scan, mesh in zip(scans, meshes):
         if scan.checks is None or len(groups) == 0:
             continue
-        heard = np.all(np.isfinite(scan.checks.points), axis=1)
-        pts = scan.checks.points[heard]
-        region = _region_at(mesh.regions, scan.checks.pixels[heard])
-        claimed = np.zeros((len(pts), len(groups)), dtype=bool)
-        claimed[region >= 0] = mesh.hypotheses[region[region >= 0]] > 0
-        claimed &= _on_planes(pts, scan.pose.translation, groups, settings)
+        pts, _, claimed = _heard_claims(scan, mesh, groups, settings)
         off = np.where(claimed, np.abs(pts @ groups.normals.T - groups.offsets), np.inf)
         g = np.argmin(off, axis=1) if len(pts) else np.zeros(0, int)
         near = np.isfinite(np.take_along_axis(off, g[:, None], 1)[:, 0])
@@ -139,12 +146,7 @@ def refuted_groups(scans, meshes, groups: PlaneGroups, settings: SurfelSettings)
     for scan, mesh in zip(scans, meshes):
         if scan.checks is None or len(groups) == 0:
             continue
-        heard = np.all(np.isfinite(scan.checks.points), axis=1)
-        region = _region_at(mesh.regions, scan.checks.pixels[heard])
-        claimed = np.zeros((len(region), len(groups)), dtype=bool)
-        claimed[region >= 0] = mesh.hypotheses[region[region >= 0]] > 0
-        on = claimed & _on_planes(scan.checks.points[heard], scan.pose.translation, groups,
-                                  settings)
+        _, claimed, on = _heard_claims(scan, mesh, groups, settings)
         confirmed += on.sum(axis=0)
         against += (claimed & ~on.any(axis=1, keepdims=True)).sum(axis=0)
     return (against >= settings.min_refutations) & (against > confirmed)
