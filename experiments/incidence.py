@@ -62,6 +62,7 @@ from mitsonar.physics.beampattern import HALF_POWER, two_way_pattern
 from mitsonar.plots import _pyplot, save_png
 from mitsonar.scene.loading import DefaultMaterialWarning
 from mitsonar.scene.mesh import scene_mesh
+from mitsonar.sensors.sonar import beam_seed
 from mitsonar.sensors.trajectory import sensor_poses
 
 SCENES = Path(__file__).resolve().parents[1] / "scenes"
@@ -205,10 +206,6 @@ def sonar_for(scene, preset: str, settings: RunSettings) -> mitsonar.Sonar:
     return mitsonar.Sonar(scene, config)
 
 
-def _seed(*parts) -> int:
-    return int(np.random.SeedSequence([int(p) for p in parts]).generate_state(1)[0])
-
-
 def scene_beams(index: int, name: str, scene, presets, settings: RunSettings,
                 progress) -> dict:
     """Every beam of scene ``name`` (loaded ``scene``): columns (arrays over beams) preset,
@@ -225,7 +222,7 @@ def scene_beams(index: int, name: str, scene, presets, settings: RunSettings,
         cone = beam_cones(sonar.config, grid)
         for k, (t, pose) in enumerate(zip(times, poses)):
             truth = beam_truth(sonar.tracer, pose, grid, cone)
-            scan = sonar.scan(pose, grid, seed=_seed(settings.seed, index, k))
+            scan = sonar.scan(pose, grid, seed=beam_seed(settings.seed, index, k))
             distance = np.full(len(grid), np.nan)
             distance[scan.detected] = point_to_mesh(scan.points_world, mesh)[0]
             beam = dict(preset=np.full(len(grid), preset), scene=np.full(len(grid), name),
