@@ -49,6 +49,26 @@ from mitsonar.trace.paths import Paths
 GRID_REDUCE = "Expand"
 #: Drive spectra kept by a synthesizer (~1 MB each).
 DRIVES_KEPT = 64
+#: Codes' system responses kept by :func:`code_response` for every synthesizer of the process
+#: (~54 kB each; a 117-beam frame asks for ~80).
+RESPONSES_KEPT = 256
+
+_responses: dict = {}
+
+
+def code_response(band: Band, waveform, frequencies) -> np.ndarray:
+    """``band.system_response(waveform, frequencies)`` (:meth:`Band.system_response`), kept per
+    (waveform, frequencies, reference rate, transducer) for the whole process: the direct sum
+    over a code's samples costs ~0.3 s per code and every cycle of a frame fires codes again,
+    and a new Sonar (a new synthesizer) on the same settings asks for the same ones."""
+    frequencies = np.asarray(frequencies, dtype=float)
+    key = (waveform, frequencies.tobytes(), band.reference_rate, band.transducer,
+           band.transducer_response)
+    if key not in _responses:
+        if len(_responses) >= RESPONSES_KEPT:
+            _responses.clear()
+        _responses[key] = band.system_response(waveform, frequencies)
+    return _responses[key]
 
 
 def _spread(acc, pos, row, gain, first_order, rotation, half_width: int, inv_var: float,
@@ -428,7 +448,7 @@ class EchoSynthesizer:
             band = self.band
             spectra = []
             for w in waveforms:  # the cycle's codes
-                response = band.system_response(w, frequencies)
+                response = code_response(band, w, frequencies)
                 floor = band.floor * np.abs(band.system_spectrum(w)).max()
                 spectra.append(np.where(np.abs(response) > floor, response, 0.0))
             phases = np.exp(-2j * np.pi * np.asarray(delays)[:, :, None] * frequencies)
