@@ -267,6 +267,23 @@ def test_barriers_bridge_a_broken_line_and_reach_the_border():
     assert count == 1 and above == below
 
 
+@pytest.mark.parametrize("start, regions_found", [(40.5, 2), (120.5, 1)])
+def test_barriers_extend_a_long_line_to_the_border_by_its_own_length(start, regions_found):
+    """varied_1: a wall-floor crease found from 130 px right of the crop's left side to the
+    corner; the floor's region leaked round its end onto the wall. A line 150 px long stopping
+    30 px short of the border (beyond ``junction_gap``, 25 px) is extended to it (by up to its
+    own length, at most ``bridge_gap`` x the width: 50 px at 200 px); a 70 px line stopping 110
+    px short is not, and the crop stays one region."""
+    from mitsonar.recon.surfels.growing import barriers
+
+    box = (10, 0, 200, 150)
+    line = [[start, 75.5, 190.5, 75.5]]
+    settings = SurfelSettings(image_width=200)
+    labels = region_labels(barriers(line, box, settings), box, (150, 200), 0.0, 3)
+    assert labels.max() + 1 == regions_found
+    assert (labels[10, 100] != labels[140, 100]) == (regions_found == 2)
+
+
 def test_check_echoes_confirm_a_lone_surfels_plane():
     """A lone surfel 14 cm across on a wall 2 m ahead has a normal too poorly determined
     (points 5 mm off the wall) to claim its region: nothing is grown. Check echoes on the wall
