@@ -461,7 +461,8 @@ def triangle_surfels(segments, join_tolerance: float = 10.0,
     return Surfels2D(vertices, np.stack([i, j], axis=1)[keep], s)
 
 
-def close_junctions(segments, gap: float, min_angle: float = np.radians(10.0)) -> np.ndarray:
+def close_junctions(segments, gap: float, min_angle: float = np.radians(10.0),
+                    reach=None) -> np.ndarray:
     """Segments (n, 4) [pixels] with ends extended to the junctions they stop short of.
 
     A detector often stops a few pixels short of where two lines meet (the corner of a window,
@@ -469,11 +470,16 @@ def close_junctions(segments, gap: float, min_angle: float = np.radians(10.0)) -
     of segments that are not nearly parallel (``min_angle`` [rad]) and whose supporting lines
     cross within ``gap`` [pixels] of both segments, each segment's nearer end is moved to the
     crossing if the crossing lies beyond it; of several such junctions an end takes the
-    nearest. Segments are only lengthened, never shortened or moved sideways.
+    nearest. ``reach`` (n,) [pixels]: how far each segment's own ends may be extended instead
+    of ``gap`` (the crossing still within ``gap`` of the other segment). Segments are only
+    lengthened, never shortened or moved sideways.
     """
     s = _check_segments(segments).copy()
     check_range("gap [pixels]", gap, 0.0, np.inf)
-    if len(s) < 2 or gap == 0:
+    reach = np.full(len(s), float(gap)) if reach is None else np.asarray(reach, float)
+    if reach.shape != (len(s),) or np.any(~(reach >= 0)):
+        raise ValueError(f"reach must be {len(s)} lengths >= 0 [pixels], got {reach}")
+    if len(s) < 2 or not np.any(reach > 0):
         return s
     i, j = np.nonzero(~np.eye(len(s), dtype=bool))  # ordered pairs: i is extended towards j
     a, da = s[i, :2], s[i, 2:] - s[i, :2]
@@ -486,7 +492,7 @@ def close_junctions(segments, gap: float, min_angle: float = np.radians(10.0)) -
     tb = np.divide(w[:, 0] * da[:, 1] - w[:, 1] * da[:, 0], cross, out=np.zeros(len(i)), where=ok)
     beyond_a = np.maximum(np.maximum(-ta, ta - 1.0), 0.0) * len_a  # crossing past i's ends
     beyond_b = np.maximum(np.maximum(-tb, tb - 1.0), 0.0) * len_b
-    ok &= (beyond_a > 0) & (beyond_a <= gap) & (beyond_b <= gap)
+    ok &= (beyond_a > 0) & (beyond_a <= reach[i]) & (beyond_b <= gap)
     x = a + ta[:, None] * da
     end = np.where(ta > 1.0, 2, 0)  # column of the end that moves: (u2, v2) or (u1, v1)
     for e in (0, 2):  # each end takes its nearest junction

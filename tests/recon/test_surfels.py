@@ -96,6 +96,55 @@ def test_grouping_judges_a_small_noisy_surfel_by_its_points():
     assert alone.normal_errors[0] > SurfelSettings().max_normal_error  # not grown
 
 
+def _on_x(x, yz):
+    """Points (n, 3) on the plane at ``x`` [m] at (y, z) ``yz`` (n, 2) [m]."""
+    yz = np.asarray(yz, float)
+    return np.column_stack([np.full(len(yz), x), yz])
+
+
+def _window_and_wall(case):
+    """Surfel points (k, 4, 3), fill points (k, 8, 3) and viewpoints (k, 3) [m] of a window
+    pane at x = 3.1 and, last, one surfel on the wall's face x = 3.0 beside it (5 mm noise).
+    'drive': room_glass's east window from eight poses of its drive (two surfels each between
+    the frame's lines) and a wall surfel's four points seen 2.7 m away at 45 deg; 'wide': a
+    2.6 x 1 m pane seen square-on from three poses and a wall surfel with eight fill points
+    seen 3.8 m away at 58 deg."""
+    rng = np.random.default_rng(5)
+    if case == "drive":
+        pane = [[(0.23, 0.9), (-0.45, 0.9), (0.23, 1.29), (0.04, 1.13)],
+                [(-0.72, 0.91), (-0.69, 1.17), (-0.16, 0.89), (-0.51, 1.04)]]
+        views = np.repeat([[x, 0.0, 0.5] for x in np.linspace(0.1, 1.1, 8)], 2, axis=0)
+        wall = [(1.86, 0.29), (0.92, 0.09), (1.87, 0.71), (1.53, 0.27)]
+        wall_view, fill = [1.09, 0.05, 0.5], []
+    else:
+        pane = [[(y + 0.3, z), (y - 0.15, z - 0.15), (y, z + 0.3), (y, z)]
+                for y in (-1.0, 0.0, 1.0) for z in (0.6, 1.3)]
+        views = np.repeat([[1.0, y, 0.5] for y in (-1.0, 0.0, 1.0)], 2, axis=0)
+        wall = [(2.7, 0.8), (2.25, 0.65), (2.4, 1.1), (2.4, 0.8)]
+        wall_view = [1.0, -1.0, 0.5]
+        fill = [(2.4 + u, 0.8 + v) for u in (-0.2, 0.0, 0.2) for v in (-0.2, 0.0, 0.2)][:8]
+    points = np.array([_on_x(3.1, s) for s in pane * (len(views) // len(pane))] + [_on_x(3.0, wall)])
+    extra = np.full((len(points), 8, 3), np.nan)
+    extra[-1, :len(fill)] = _on_x(3.0, fill).reshape(-1, 3)
+    points[:, :, 0] += rng.normal(0, 0.005, points.shape[:2])
+    extra[:, :, 0] += rng.normal(0, 0.005, extra.shape[:2])
+    return points, extra, np.concatenate([views, [wall_view]])
+
+
+@pytest.mark.parametrize("case", ["drive", "wide"])
+def test_grouping_keeps_a_wall_apart_from_a_window_pane_10_cm_behind(case):
+    """A wall surfel 10 cm in front of a window's pane (room_glass's recessed windows; the
+    wall's points expected 2-6 cm off their plane at 2.7-3.8 m and oblique incidence): the
+    pairwise links chained it to the pane (a plane tilted between it and each small patch of
+    the pane fits both within ``merge_sigmas`` expected errors), but the pane's own plane and
+    the wall's fit their points far better than one plane for both, beyond chance (chi^2 with
+    3 degrees of freedom at 3 sigma): two groups, centred at x = 3.1 and 3.0 within 5 mm."""
+    points, extra, view = _window_and_wall(case)
+    groups = group_surfels(points, view, SurfelSettings(), extra)
+    assert groups.label.tolist() == [0] * (len(points) - 1) + [1]
+    np.testing.assert_allclose(groups.centroids[:, 0], [3.1, 3.0], atol=0.005)
+
+
 def _scan_stub(segments, box=(0, 0, 200, 150)):
     camera = CameraModel().at_resolution(200)
     return PoseScan(mitsonar.Pose.identity(), camera, box, np.asarray(segments, float),
@@ -216,6 +265,23 @@ def test_barriers_bridge_a_broken_line_and_reach_the_border():
     (above, below), count = regions(SurfelSettings(image_width=200, bridge_gap=0.0,
                                                    junction_gap=0.0))
     assert count == 1 and above == below
+
+
+@pytest.mark.parametrize("start, regions_found", [(40.5, 2), (120.5, 1)])
+def test_barriers_extend_a_long_line_to_the_border_by_its_own_length(start, regions_found):
+    """varied_1: a wall-floor crease found from 130 px right of the crop's left side to the
+    corner; the floor's region leaked round its end onto the wall. A line 150 px long stopping
+    30 px short of the border (beyond ``junction_gap``, 25 px) is extended to it (by up to its
+    own length, at most ``bridge_gap`` x the width: 50 px at 200 px); a 70 px line stopping 110
+    px short is not, and the crop stays one region."""
+    from mitsonar.recon.surfels.growing import barriers
+
+    box = (10, 0, 200, 150)
+    line = [[start, 75.5, 190.5, 75.5]]
+    settings = SurfelSettings(image_width=200)
+    labels = region_labels(barriers(line, box, settings), box, (150, 200), 0.0, 3)
+    assert labels.max() + 1 == regions_found
+    assert (labels[10, 100] != labels[140, 100]) == (regions_found == 2)
 
 
 def test_check_echoes_confirm_a_lone_surfels_plane():

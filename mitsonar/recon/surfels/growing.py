@@ -70,12 +70,15 @@ def barriers(segments, box, settings: SurfelSettings) -> np.ndarray:
     within :func:`~mitsonar.recon.lines.merge_collinear`'s tolerances, gaps up to
     ``bridge_gap`` x the image width between them), and ends that stop at most ``junction_gap``
     short of another segment or of the crop's border extended to it
-    (:func:`~mitsonar.recon.lines.close_junctions`).
+    (:func:`~mitsonar.recon.lines.close_junctions`); a bridged line's ends reach further, up to
+    its own length and at most ``bridge_gap`` x the image width (a crease found over 400 px
+    and missed over its last 130 px to the crop's side is a gap like those between pieces).
 
     A wall-floor crease seen at a grazing angle is found in pieces; through the gaps the floor's
     region reached the wall's, and with no wall surfel the floor plane was grown over the wall's
     pixels, behind the wall up to the sonar's range (varied_1: 18 % of the map's area in a band
-    of 20 px above the crease). An extra barrier only splits a region, never joins two.
+    of 20 px above the crease; the crease's last 130 px to the crop's side missed). An extra
+    barrier only splits a region, never joins two.
     """
     s = np.asarray(segments, dtype=float).reshape(-1, 4)
     u0, v0, u1, v1 = box
@@ -84,7 +87,13 @@ def barriers(segments, box, settings: SurfelSettings) -> np.ndarray:
     bridged = merge_collinear(s, gap_tolerance=settings.bridge_gap * settings.image_width) \
         if len(s) else s
     every = np.concatenate([s, bridged, border])
-    return close_junctions(every, settings.junction_gap)[:len(s) + len(bridged)]
+    length = np.hypot(bridged[:, 2] - bridged[:, 0], bridged[:, 3] - bridged[:, 1])
+    reach = np.concatenate([np.full(len(s), settings.junction_gap),
+                            np.clip(length, settings.junction_gap,
+                                    max(settings.bridge_gap * settings.image_width,
+                                        settings.junction_gap)),
+                            np.full(len(border), settings.junction_gap)])
+    return close_junctions(every, settings.junction_gap, reach=reach)[:len(s) + len(bridged)]
 
 
 def _image_points(camera: CameraModel, pose: Pose, points) -> tuple[np.ndarray, np.ndarray]:

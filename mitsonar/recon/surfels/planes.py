@@ -71,6 +71,51 @@ def _point_sigma(points, viewpoints, normals, settings: SurfelSettings) -> np.nd
     return np.hypot(settings.range_sigma, r * np.tan(settings.angle_sigma) * sin)
 
 
+def _weighted_sums(points, viewpoints, normals, settings: SurfelSettings, origin):
+    """Sums of point sets (u, m, 3) [m] (NaN-padded, seen from viewpoints (u, m, 3)) for
+    weighted plane fits, each point weighted by 1 / sigma^2, sigma its expected error
+    (:func:`_point_sigma`) off its set's plane with unit normal (u, 3): the weights' sum (u,)
+    [1/m^2], sum w q (u, 3) [1/m] and sum w q q^T (u, 3, 3) [1] of q = point - ``origin``."""
+    ok = np.all(np.isfinite(points), axis=-1)
+    sigma = _point_sigma(points, viewpoints, normals[:, None], settings)
+    w = np.where(ok, 1.0 / np.where(ok, sigma, 1.0) ** 2, 0.0)
+    q = np.where(ok[..., None], points - origin, 0.0)
+    return w.sum(axis=1), np.einsum("um,umi->ui", w, q), np.einsum("um,umi,umj->uij", w, q, q)
+
+
+def _misfit(weight, first, second) -> np.ndarray:
+    """chi^2 (sum of w d^2 over the points) of the weighted least-squares plane of point sets
+    given by :func:`_weighted_sums` (any leading shape): the smallest eigenvalue of their
+    weighted scatter; 0 for an empty set."""
+    mean = first / np.maximum(weight, 1e-300)[..., None]
+    scatter = second - weight[..., None, None] * mean[..., :, None] * mean[..., None, :]
+    return np.maximum(np.linalg.eigvalsh(scatter)[..., 0], 0.0)
+
+
+def _coplanar_limit(settings: SurfelSettings) -> float:
+    """Largest chi^2 increase (:func:`_separation`) of two point sets on one plane: its
+    three degrees of freedom (the second plane's tilt and offset) exceed it with the
+    probability that a normal deviate exceeds ``merge_sigmas`` (0.27 % at 3)."""
+    from scipy.special import erf
+    from scipy.stats import chi2
+
+    return float(chi2.ppf(erf(settings.merge_sigmas / np.sqrt(2.0)), 3))
+
+
+def _separation(a, b) -> np.ndarray:
+    """How much worse one plane fits two point sets than a plane each: the chi^2 of the
+    weighted least-squares plane of both together minus those of each alone (sums ``a``, ``b``
+    of :func:`_weighted_sums`, broadcast against each other); chi^2 with three degrees of
+    freedom when they share a plane and their errors are as expected (:func:`_point_sigma`).
+
+    Two point sets on parallel planes a few cm apart (a wall's face and a window pane 10 cm
+    behind it) each lie within ``merge_sigmas`` expected errors of one plane tilted between
+    them (3 x 3-4.5 cm at 3 m and oblique incidence), but that plane leaves both with
+    residuals their own planes do not have; the likelihood-ratio test weighs exactly that."""
+    joint = _misfit(*(x + y for x, y in zip(a, b)))
+    return joint - _misfit(*a) - _misfit(*b)
+
+
 def _plane_stats(points, viewpoints, settings: SurfelSettings):
     """Least-squares planes (14)(15) of u point sets (u, m, 3) [m] (NaN-padded, >= 3 points
     each) seen from viewpoints (u, m, 3) [m].
@@ -99,7 +144,9 @@ def _links(points, viewpoints, settings: SurfelSettings,
     (u, m, 3)) that lie on one plane: their normals agree within the coarse gate
     ``merge_angle`` + ``merge_sigmas`` x the combined standard error of the two normals, and
     every point of both lies within ``merge_sigmas`` expected errors (:func:`_point_sigma`) of
-    the least-squares plane of the two sets together.
+    the least-squares plane of the two sets together, and that plane fits them no worse than
+    a plane each by more than chance allows (:func:`_separation` within
+    :func:`_coplanar_limit`).
 
     Sets whose normal's standard error exceeds ``max_link_error`` link nothing: such a set (a
     small surfel far away) fits several planes at once and would chain them into one group (on
@@ -124,7 +171,10 @@ def _links(points, viewpoints, settings: SurfelSettings,
     gate = settings.merge_angle + settings.merge_sigmas * np.hypot(error[:, None], error[None, :])
     angle = np.arccos(np.clip(np.abs(normal @ normal.T), 0.0, 1.0))
     vague = error > settings.max_link_error
+    sums = _weighted_sums(points, viewpoints, normal, settings, points[ok].mean(axis=0))
+    apart = _separation(tuple(x[:, None] for x in sums), tuple(x[None] for x in sums))
     linked = inside & inside.T & (angle <= gate + 1e-12) & ~vague[:, None] & ~vague[None, :]
+    linked &= apart <= _coplanar_limit(settings)
     return np.nonzero(np.triu(linked, k=1))
 
 
@@ -180,6 +230,36 @@ def _fit_groups(points, viewpoints, label, settings: SurfelSettings):
     return normals, np.einsum("gc,gc->g", normals, centroids), centroids, errors, pts, view
 
 
+def _joins(sums, label, count: int) -> np.ndarray:
+    """(k, G) :func:`_separation` of each of k surfels (``sums`` of :func:`_weighted_sums`)
+    from each of ``count`` groups ``label`` (k,) without it."""
+    group = [np.zeros((count,) + x.shape[1:]) for x in sums]
+    for g, x in zip(group, sums):
+        np.add.at(g, label, x)
+    own = np.arange(count)[None] == label[:, None]  # (k, G): the surfel's own group
+    rest = tuple(g[None] - np.where(own.reshape(own.shape + (1,) * (x.ndim - 1)), x[:, None], 0)
+                 for g, x in zip(group, sums))
+    return _separation(tuple(x[:, None] for x in sums), rest)
+
+
+def _drop_misfits(sums, label, limit: float) -> np.ndarray:
+    """Groups ``label`` (k,) of surfels (``sums`` of :func:`_weighted_sums`) after taking out,
+    one per group and round, the surfel the rest of its group fits worst while that
+    :func:`_separation` exceeds ``limit``: pairwise links chain, and a surfel on a parallel
+    plane 10 cm off links with each small patch of the other plane that a tilted plane through
+    both fits, but not with the whole of it."""
+    label = np.asarray(label).copy()
+    for _ in range(len(label)):  # each round takes out at least one surfel
+        apart = _joins(sums, label, label.max() + 1)[np.arange(len(label)), label]
+        worst = np.full(label.max() + 1, -np.inf)
+        np.maximum.at(worst, label, apart)
+        out = (apart == worst[label]) & (apart > limit)
+        if not out.any():
+            break
+        label[out] = label.max() + 1 + np.arange(int(out.sum()))
+    return _relabel(label)
+
+
 def group_surfels(points, viewpoints, settings: SurfelSettings = SurfelSettings(),
                   extra=None) -> PlaneGroups:
     """Plane groups of registered surfels (package docstring: grouping, (14)(15), iteration).
@@ -205,7 +285,9 @@ def group_surfels(points, viewpoints, settings: SurfelSettings = SurfelSettings(
     seen = np.broadcast_to(view[:, None], p.shape)
     stats = _plane_stats(p, seen, settings)
     surfel_normals, _, own_error = stats
-    label = _components(len(p), *_links(p, seen, settings, stats))
+    sums = _weighted_sums(p, seen, surfel_normals, settings, np.nanmean(p.reshape(-1, 3), axis=0))
+    limit = _coplanar_limit(settings)
+    label = _drop_misfits(sums, _components(len(p), *_links(p, seen, settings, stats)), limit)
     z = settings.merge_sigmas
     for iteration in range(1, settings.max_iterations + 1):
         gn, gd, _, ge, _, _ = _fit_groups(p, view, label, settings)
@@ -215,11 +297,13 @@ def group_surfels(points, viewpoints, settings: SurfelSettings = SurfelSettings(
         misfit = np.max(np.where(np.isfinite(misfit), misfit, 0.0), axis=-1)  # worst point
         gate = settings.merge_angle + z * np.hypot(own_error[:, None], ge[None, :])
         fits = (misfit <= z) & (np.arccos(np.clip(np.abs(surfel_normals @ gn.T), 0, 1)) <= gate)
+        fits &= _joins(sums, label, len(gn)) <= limit
         own = label.max() + 1 + np.arange(len(p))
         moved = _relabel(np.where(fits.any(axis=1),
                                   np.argmin(np.where(fits, misfit, np.inf), axis=1), own))
         *_, pts, pts_view = _fit_groups(p, view, moved, settings)
         merged = _components(int(moved.max()) + 1, *_links(pts, pts_view, settings))[moved]
+        merged = _drop_misfits(sums, merged, limit)
         if np.array_equal(merged, label):
             break
         label = merged

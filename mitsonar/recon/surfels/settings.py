@@ -30,7 +30,9 @@ class SurfelSettings:
         merge_angle: coarse gate: largest angle between the normals of one plane group [rad],
             widened by ``merge_sigmas`` standard errors of the two normals.
         merge_sigmas: surfels share a plane when all their points lie within this many expected
-            errors (``range_sigma``, ``angle_sigma``) of it (package docstring).
+            errors (``range_sigma``, ``angle_sigma``) of it and one plane fits them no worse
+            than a plane each beyond the chi^2 (3 degrees of freedom) quantile this many normal
+            deviates cover (package docstring).
         max_normal_error: a group of one surfel whose normal's standard error exceeds this
             [rad] (a small noisy surfel) claims no image region: no plane is grown from it.
         max_link_error: a surfel or group whose normal's standard error exceeds this [rad]
@@ -41,8 +43,9 @@ class SurfelSettings:
         junction_gap: barrier segments that stop at most this short of a junction with another
             segment are extended to it [pixels] (:func:`~mitsonar.recon.lines.close_junctions`).
         bridge_gap: collinear pieces of one line with gaps up to this fraction of the image
-            width between them are bridged in the barriers
-            (:func:`~mitsonar.recon.surfels.growing.barriers`).
+            width between them are bridged in the barriers, and a bridged line is extended to
+            the next line or the crop's border by up to its own length, at most this fraction
+            of the width (:func:`~mitsonar.recon.surfels.growing.barriers`).
         stride: grid step of the back-projected pixels [pixels].
         max_range: farthest back-projected map point from the camera [m]; None: the sonar's
             ``SonarConfig.max_range``, beyond which no check ping can confirm or refute a grown
