@@ -36,7 +36,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from mitsonar.frames import Pose
-from mitsonar.sensors.sonar import PRE_ROLL, TRACE_BATCH, Sonar, beam_seed
+from mitsonar.sensors.sonar import PRE_ROLL, Sonar, beam_seed
 from mitsonar.signal.band import Band
 from mitsonar.signal.detection import Echoes
 from mitsonar.signal.ofdm import PAPER_LISTEN, Schedule, code_set
@@ -52,6 +52,9 @@ POSE_TOLERANCE = (0.01, np.radians(0.5))
 #: them with the array moved; farther, the hits are traced again
 #: (tests/sensors/test_shared_hits.py: reuse over 3 cm against re-tracing).
 RETRACE_TOLERANCE = (0.05, np.radians(2.0))
+#: Schedule cycles whose direct paths (spectrum and blanking envelopes, ~3 MB each) an
+#: :class:`OfdmSonar` keeps: a 117-beam frame has 5, repeated every frame.
+DIRECT_KEPT = 16
 
 
 @dataclass(frozen=True)
@@ -136,6 +139,7 @@ class OfdmSonar:
         self.synth = EchoSynthesizer(self.band)
         self.processor = EchoProcessor(cfg.geometry, self.band, cfg.medium.speed_of_sound,
                                        cfg.detection, cfg.noise_rms)
+        self._directs: dict = {}  # schedule cycle -> direct paths' spectrum and envelopes
 
     def schedule(self, directions) -> Schedule:
         """Schedule of beams towards ``directions`` (B, 3), checked against the field of view."""
@@ -190,8 +194,9 @@ class OfdmSonar:
         unless they are asked for ``apart`` (the cross-talk measurement)."""
         sonar = self.sonar
         beam_groups = []  # per beam: its (paths, waveform) groups, fired at its offset
-        for first in range(0, len(beams), TRACE_BATCH):  # beams traced a batch at a time
-            batch = slice(first, first + TRACE_BATCH)
+        size = sonar.trace_batch()
+        for first in range(0, len(beams), size):  # beams traced a batch at a time
+            batch = slice(first, first + size)
             traces = sonar.tracer.trace_many(poses[batch], directions[batch],
                                              [beam_seed(seed, b) for b in beams[batch]])
             beam_groups += [[(p.delayed(offset), w)
@@ -233,6 +238,27 @@ class OfdmSonar:
                 simulated[i] = pose
         return total, simulated
 
+    def _direct(self, directions, offsets, codes) -> tuple[np.ndarray, np.ndarray]:
+        """The direct transmitter -> receiver paths of a cycle's beams (directions (B, 3),
+        firing times ``offsets`` (B,) [s] within the cycle, codes (B,)): their summed spectrum
+        on the band (N_rx, nb) and each beam's envelope of them (B, n_samples) [Pa], for
+        blanking. They depend on the schedule alone, not on the pose: computed once per
+        schedule cycle and receiver, kept for later frames (``DIRECT_KEPT`` cycles)."""
+        key = (np.ascontiguousarray(directions, dtype=float).tobytes(),
+               np.ascontiguousarray(offsets, dtype=float).tobytes(), tuple(codes),
+               self.processor)
+        if key not in self._directs:
+            n_rx = self.sonar.config.geometry.rx.count
+            tracer = self.sonar.tracer
+            spectrum = self.synth.groups_spectrum(
+                [(tracer.direct_paths(u).delayed(offset), code)
+                 for u, offset, code in zip(directions, offsets, codes)], n_rx)
+            if len(self._directs) >= DIRECT_KEPT:
+                self._directs.clear()
+            self._directs[key] = (spectrum, self.processor.noiseless_envelopes(
+                spectrum, directions, codes))
+        return self._directs[key]
+
     def _cycle(self, schedule: Schedule, beams, pose_at, start_time: float, seed: int,
                crosstalk: bool, channels: bool) -> dict:
         sonar = self.sonar
@@ -248,14 +274,11 @@ class OfdmSonar:
             echo_spectra = self._beam_echoes(beams, poses, directions, offsets, codes, seed,
                                              apart=crosstalk)
             echoes = np.sum(echo_spectra, axis=0)
-        direct_total = self.synth.groups_spectrum(
-            [(sonar.tracer.direct_paths(u).delayed(offset), code)
-             for u, offset, code in zip(directions, offsets, codes)], n_rx)
+        direct_total, blank = self._direct(directions, offsets, codes)
         total = echoes + direct_total
         band, noise_rms = self.band, sonar.config.noise_rms
         noise_seed = beam_seed(seed, int(beams[0]), _NOISE_STREAM)
         processor = self.processor
-        blank = processor.noiseless_envelopes(direct_total, directions, codes)
         listening = dict(transmit_times=offsets,
                          max_path_length=2.0 * sonar.config.max_range)  # every code's window
         if channels:  # the recording, as a dataset keeps it
