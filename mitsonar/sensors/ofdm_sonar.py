@@ -172,10 +172,15 @@ class OfdmSonar:
         poses = np.zeros((n, 4, 4))
         crosstalk_db = np.full(n, np.nan)
         tables, cycle_beams = [], []
+        fired = [pose_at(start_time + t) for t in schedule.transmit_time]  # each beam's pose
+        traced = {}  # beams traced for the whole frame at once: where one batch holds them all
+        if not self._shares(crosstalk) and n <= self.sonar.trace_batch():
+            every = np.arange(n)
+            traced = dict(zip(every, self._trace(every, fired, schedule.directions, seed)))
         for c in range(len(schedule.cycle_start)):  # cycles follow each other in time
             beams = np.nonzero(schedule.cycle == c)[0]
-            result = self._cycle(schedule, beams, pose_at, start_time, seed, crosstalk,
-                                 channels)
+            result = self._cycle(schedule, beams, [fired[b] for b in beams], traced, seed,
+                                 crosstalk, channels)
             for key, target in (("detected", detected), ("depth", depth), ("amplitude", amplitude),
                                 ("crosstalk", crosstalk_db)):
                 target[beams] = result[key]
@@ -186,22 +191,33 @@ class OfdmSonar:
         return Frame(schedule, detected, depth, amplitude, points,
                      Echoes.gather(tables, cycle_beams), poses, crosstalk_db, start_time)
 
+    def _shares(self, crosstalk: bool) -> bool:
+        """Whether a frame's cycles share their hits (``shared_hits``, module docstring)."""
+        return self.shared_hits and not crosstalk and self.sonar.tracer.shares_hits()
+
+    def _trace(self, beams, poses, directions, seed: int) -> list:
+        """Traces of ``beams`` (B,) fired from ``poses`` (B) towards ``directions`` (B, 3),
+        each in its own cone, :meth:`Sonar.trace_batch
+        <mitsonar.sensors.sonar.Sonar.trace_batch>` at a time."""
+        size = self.sonar.trace_batch()
+        return [trace for first in range(0, len(beams), size)  # a batch at a time
+                for trace in self.sonar.tracer.trace_many(
+                    poses[first:first + size], directions[first:first + size],
+                    [beam_seed(seed, b) for b in beams[first:first + size]])]
+
     def _beam_echoes(self, beams, poses, directions, offsets, codes, seed: int,
-                     apart: bool) -> np.ndarray:
+                     apart: bool, traced: dict | None = None) -> np.ndarray:
         """Echo spectra on the band of a cycle's beams, each beam traced in its own cone from
-        its own pose (the reference of the shared path): (B, N_rx, nb), or (1, N_rx, nb) with
-        every beam's echoes on one grid per distinct waveform, one FFT per waveform and channel,
-        unless they are asked for ``apart`` (the cross-talk measurement)."""
+        its own pose (the reference of the shared path; ``traced``: beams traced already):
+        (B, N_rx, nb), or (1, N_rx, nb) with every beam's echoes on one grid per distinct
+        waveform, one FFT per waveform and channel, unless they are asked for ``apart`` (the
+        cross-talk measurement)."""
         sonar = self.sonar
-        beam_groups = []  # per beam: its (paths, waveform) groups, fired at its offset
-        size = sonar.trace_batch()
-        for first in range(0, len(beams), size):  # beams traced a batch at a time
-            batch = slice(first, first + size)
-            traces = sonar.tracer.trace_many(poses[batch], directions[batch],
-                                             [beam_seed(seed, b) for b in beams[batch]])
-            beam_groups += [[(p.delayed(offset), w)
-                             for p, w in sonar.echo_groups(trace.paths, code, self.synth)]
-                            for trace, offset, code in zip(traces, offsets[batch], codes[batch])]
+        traces = [traced[b] for b in beams] if traced else \
+            self._trace(beams, poses, directions, seed)
+        beam_groups = [[(p.delayed(offset), w)  # per beam: its groups, fired at its offset
+                        for p, w in sonar.echo_groups(trace.paths, code, self.synth)]
+                       for trace, offset, code in zip(traces, offsets, codes)]
         n_rx = sonar.config.geometry.rx.count
         if apart:
             return np.stack([self.synth.groups_spectrum(groups, n_rx) for groups in beam_groups])
@@ -259,7 +275,7 @@ class OfdmSonar:
                 spectrum, directions, codes))
         return self._directs[key]
 
-    def _cycle(self, schedule: Schedule, beams, pose_at, start_time: float, seed: int,
+    def _cycle(self, schedule: Schedule, beams, poses, traced: dict, seed: int,
                crosstalk: bool, channels: bool) -> dict:
         sonar = self.sonar
         n_rx = sonar.config.geometry.rx.count
@@ -267,12 +283,11 @@ class OfdmSonar:
         offsets = schedule.transmit_time[beams] - t0  # firing times within the cycle
         codes = [schedule.codes[k] for k in schedule.code_index[beams]]
         directions = schedule.directions[beams]
-        poses = [pose_at(start_time + schedule.transmit_time[b]) for b in beams]
-        if self.shared_hits and not crosstalk and sonar.tracer.shares_hits():
+        if self._shares(crosstalk):
             echoes, poses = self._shared_echoes(beams, poses, directions, offsets, codes, seed)
         else:
             echo_spectra = self._beam_echoes(beams, poses, directions, offsets, codes, seed,
-                                             apart=crosstalk)
+                                             crosstalk, traced)
             echoes = np.sum(echo_spectra, axis=0)
         direct_total, blank = self._direct(directions, offsets, codes)
         total = echoes + direct_total
