@@ -472,9 +472,14 @@ class EchoSynthesizer:
                 same.setdefault((type(p), getattr(p, "frequency", None)), []).append(p)
             kinds.append([kind.concatenate(members) for (kind, _), members in same.items()])
         factored = [p for each in kinds for p in each if isinstance(p, HitPaths)]
-        hits = iter(self.impulse_grids(factored, n_channels) if factored else ())
-        grids = np.stack([sum(next(hits) if isinstance(p, HitPaths) else
-                              self.impulse_grid(p, n_channels) for p in each) for each in kinds])
+        hit_grids = self.impulse_grids(factored, n_channels) if factored else ()
+        if len(factored) == len(kinds) and all(len(each) == 1 for each in kinds):
+            grids = hit_grids  # one factored set per waveform: an OFDM cycle's beams
+        else:
+            hits = iter(hit_grids)
+            grids = np.stack([sum(next(hits) if isinstance(p, HitPaths) else
+                                  self.impulse_grid(p, n_channels) for p in each)
+                              for each in kinds])
         filters = np.stack([band.system_spectrum(w)[band.bins] for w in by_waveform]) \
             * self._deconvolution
         spectra = sfft.fft(grids, axis=-1, workers=-1)[..., band.grid_bins] * filters[:, None]
