@@ -271,8 +271,10 @@ class OfdmSonar:
                  for u, offset, code in zip(directions, offsets, codes)], n_rx)
             if len(self._directs) >= DIRECT_KEPT:
                 self._directs.clear()
-            self._directs[key] = (spectrum, self.processor.noiseless_envelopes(
-                spectrum, directions, codes))
+            kept = (spectrum, self.processor.noiseless_envelopes(spectrum, directions, codes))
+            for array in kept:  # shared by later frames: read only
+                array.setflags(write=False)
+            self._directs[key] = kept
         return self._directs[key]
 
     def _cycle(self, schedule: Schedule, beams, poses, traced: dict, seed: int,
