@@ -49,12 +49,9 @@ from mitsonar.trace.paths import Paths
 GRID_REDUCE = "Expand"
 #: Drive spectra kept by a synthesizer (~1 MB each).
 DRIVES_KEPT = 64
-#: Factored path sets gridded by one launch of the pair kernel
-#: (:meth:`EchoSynthesizer.impulse_grids`) while their rows hold at most about this many
-#: samples: an OFDM cycle's beams of few patches (the paper model's 25 reflectors, rows of
-#: ~1 000 samples) share a launch, whose Python and launch costs were most of such a beam's
-#: gridding; a broadband beam's rows (25 x 8 600 samples) get a launch of their own, its grid
-#: in cache.
+#: Factored path sets gridded by one launch of the pair kernel while their rows hold at most
+#: about this many samples: an OFDM cycle's beams of few patches (the paper model's) share one,
+#: a broadband beam's rows (25 x 8 600 samples) get their own, its grid in cache.
 PAIR_BATCH_SAMPLES = 1 << 19
 
 
@@ -176,11 +173,14 @@ def _pair_kernel():
     return freeze(spread_pairs, warn_after=256)
 
 
-def _fixed_point_scale(peak: float) -> float | None:
-    """Scale of the grids' fixed point for contributions up to ``peak`` (None if 0): a quantum of
-    2^-36 of the largest one. Up to 2^25 terms of that size cannot overflow int64, and the
-    rounding (1.5e-11 relative per term) is far below the synthesis tolerance."""
-    return None if peak == 0.0 else 2.0 ** (36 - np.ceil(np.log2(peak)))
+def _fixed_point_scale(peak):
+    """Scale of the grids' fixed point for contributions up to ``peak`` (a float, or an array
+    of several grids' peaks; 0 where the peak is): a quantum of 2^-36 of the largest one. Up to
+    2^25 terms of that size cannot overflow int64, and the rounding (1.5e-11 relative per term)
+    is far below the synthesis tolerance."""
+    peak = np.asarray(peak, dtype=float)
+    return np.where(peak > 0.0, 2.0 ** (36 - np.ceil(np.log2(np.where(peak > 0.0, peak, 1.0)))),
+                    0.0)
 
 
 def _folded(padded: np.ndarray, scale: float, n_grid: int, origin: int,
@@ -272,10 +272,10 @@ class EchoSynthesizer:
         grid is returned in single precision (complex64: its rounding, ~6e-8 of the largest
         sample, is far below the band floor; its FFTs take half the time). Paths whose kernel
         lies wholly outside the recording are left out. ``per_pair`` and ``period``: factored
-        paths on a row per element pair, on a longer period (:meth:`_pair_grid`).
+        paths on a row per element pair, on a longer period (:meth:`_pair_grids`).
         """
         if isinstance(paths, HitPaths):
-            return self._pair_grid(paths, n_channels, per_pair, period)
+            return self._pair_grids([paths], n_channels, per_pair, period)[0]
         if isinstance(paths, MergedHits):
             return self._merged_grid(paths, n_channels)
         import drjit as dr
@@ -295,8 +295,8 @@ class EchoSynthesizer:
         slope = None if paths.first_order is None else np.asarray(paths.first_order)[keep]
         bound = np.abs(gain) if slope is None else \
             np.abs(gain) + np.abs(slope) * (abs(omega) + fs * (hw + 1) * inv_var)
-        scale = _fixed_point_scale(np.max(bound, initial=0.0))
-        if len(channel) == 0 or scale is None:
+        scale = float(_fixed_point_scale(np.max(bound, initial=0.0)))
+        if len(channel) == 0 or scale == 0.0:
             return np.zeros((n_channels, band.n_grid), dtype=np.complex64)
         first_order = None if slope is None else (
             to_jit(Float64, slope.real * scale), to_jit(Float64, slope.imag * scale),
@@ -322,9 +322,9 @@ class EchoSynthesizer:
         first, last = ((t + paths.offset - band.start_time) * fs for t in paths.span)
         omega = 2 * np.pi * (paths.frequency - band.fft_frequencies[band.shift_bin])  # [rad/s]
         # The bound of flat paths' (impulse_grid), from the merge's bounds on |a| and |b|.
-        scale = _fixed_point_scale(paths.peaks[0] + paths.peaks[1]
-                                   * (abs(omega) + fs * (hw + 1) * inv_var))
-        if len(paths) == 0 or scale is None or last <= -hw or first >= band.n_samples + hw:
+        scale = float(_fixed_point_scale(paths.peaks[0] + paths.peaks[1]
+                                         * (abs(omega) + fs * (hw + 1) * inv_var)))
+        if len(paths) == 0 or scale == 0.0 or last <= -hw or first >= band.n_samples + hw:
             return np.zeros((n_channels, band.n_grid), dtype=np.complex64)
         u = (paths.centre + (paths.offset - band.start_time)) * fs
         (a_re, a_im), (b_re, b_im) = paths.gain, paths.first_order
@@ -348,8 +348,7 @@ class EchoSynthesizer:
         return int(origin[0]), int(width[0])
 
     def _windows(self, first: np.ndarray, last: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """:meth:`_window` of several path sets, (origin, width) (S,) for positions ``first``
-        .. ``last`` (S,) [samples]."""
+        """:meth:`_window` (origin, width) (S,) of path sets at ``first`` .. ``last`` (S,)."""
         hw = self.half_width
         span = (np.floor(last) - np.floor(first)).astype(np.int64) + 2 * hw + 1
         width = np.left_shift(1, np.frexp(span - 1)[1]).astype(np.int64)  # power of 2 >= span
@@ -362,28 +361,21 @@ class EchoSynthesizer:
         cycles = self.band.shift_bin / self.band.n_grid * u
         return phasor(-2 * np.pi * (cycles - np.floor(cycles)))
 
-    def _pair_grid(self, paths: HitPaths, n_channels: int, per_pair: bool = False,
-                   period: int | None = None, by_arrival: bool = False) -> np.ndarray:
-        """:meth:`impulse_grid` of factored paths by :func:`_pair_kernel`; with ``per_pair``, a
-        row per element pair ((N_tx x n_channels, period), transmit element major), on a
-        period of ``period`` samples (default the band's n_grid; at least its n_samples + 4 x
-        half_width); with ``by_arrival``, the recorded patches gridded in order of arrival."""
-        return self._pair_grids([paths], n_channels, per_pair, period, by_arrival)[0]
-
     def impulse_grids(self, sets, n_channels: int) -> np.ndarray:
-        """:meth:`impulse_grid` (S, n_channels, n_grid) of several sets of factored paths
-        (:class:`HitPaths` with the same element counts), each as gridded alone, together
-        (:meth:`_pair_grids`)."""
+        """:meth:`impulse_grid` (S, n_channels, n_grid) of sets of factored paths, each as
+        gridded alone, together (:meth:`_pair_grids`)."""
         return self._pair_grids(sets, n_channels)
 
     def _pair_grids(self, sets, n_channels: int, per_pair: bool = False,
                     period: int | None = None, by_arrival: bool = False) -> np.ndarray:
-        """:meth:`_pair_grid` of several sets of factored paths (:class:`HitPaths` with the
-        same element counts), (S, rows, period) as :meth:`_pair_grid` gives each alone (the
-        same windows, fixed-point scales and sums: bit for bit), computed together: the sets'
-        windows and scales as array operations over all their patches, and one launch of
-        :func:`_pair_kernel` for as many sets as ``PAIR_BATCH_SAMPLES`` allows, each set on
-        rows of its own."""
+        """:meth:`impulse_grid` (S, rows, period) of sets of factored paths (:class:`HitPaths`
+        with the same element counts) by :func:`_pair_kernel`, each as gridded alone (bit for
+        bit: its own window, fixed-point scale and sums), the sets' windows and scales as array
+        operations over all patches, and one launch for as many sets as ``PAIR_BATCH_SAMPLES``
+        allows, each set on rows of its own. With ``per_pair``, a row per element pair
+        (N_tx x n_channels rows, transmit element major), on a period of ``period`` samples
+        (default the band's n_grid; at least its n_samples + 4 x half_width); with
+        ``by_arrival``, the recorded patches gridded in order of arrival."""
         Float64, Int64, UInt32 = backend().Float64, backend().Int64, backend().UInt32
 
         band = self.band
@@ -402,14 +394,12 @@ class EchoSynthesizer:
             rows = rows[np.argsort(earliest[rows], kind="stable")]
         paths, owner, earliest, latest = paths.select(rows), owner[rows], earliest[rows], \
             latest[rows]
-        peak, first, last = np.zeros(len(sets)), np.full(len(sets), np.inf), \
-            np.full(len(sets), -np.inf)
+        peak, first, last = np.zeros((3, len(sets))) + [[0.0], [np.inf], [-np.inf]]
         np.maximum.at(peak, owner, paths.gain_bound())
         np.minimum.at(first, owner, earliest)
         np.maximum.at(last, owner, latest)
-        gridded = peak > 0.0  # sets with a recorded pair of some gain
-        scale = np.where(gridded, 2.0 ** (36 - np.ceil(np.log2(np.where(gridded, peak, 1.0)))),
-                         0.0)  # _fixed_point_scale of each set
+        scale = _fixed_point_scale(peak)
+        gridded = scale > 0.0  # sets with a recorded pair of some gain
         origin, width = self._windows(np.maximum(np.where(gridded, first, 0.0), -hw),
                                       np.minimum(np.where(gridded, last, 0.0),
                                                  band.n_samples + hw))
@@ -534,7 +524,7 @@ class EchoSynthesizer:
         # Patches in order of arrival: the kernel's threads (a block of consecutive patches per
         # core) then add into a narrow band of columns of the N_tx x N_rx rows, which stays in
         # cache (in the trace's order they span the whole recording: measured 5x slower).
-        grid = self._pair_grid(paths, n_rx, per_pair=True, period=period, by_arrival=True)
+        grid = self._pair_grids([paths], n_rx, per_pair=True, period=period, by_arrival=True)[0]
         channels = sfft.fft(grid, axis=-1, workers=-1)[:, inside].reshape(n_tx, n_rx, -1)
         drives = self.drive_spectra(waveforms, delays, frequencies[inside]) \
             * (band.n_grid / band.n_fft / self._kernel_transform(nu[inside]))
