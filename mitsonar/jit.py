@@ -85,18 +85,25 @@ def to_jit(array_type, values):
     """A flat Dr.Jit array of ``array_type`` (e.g. ``backend().Float``) holding ``values``
     (any shape, flattened, converted to the type's precision), from an ``ALIGNMENT``-byte
     aligned copy."""
-    import drjit as dr
-
-    v = dr.VarType
-    dtype = np.dtype({v.Float32: np.float32, v.Float64: np.float64, v.Int32: np.int32,
-                      v.UInt32: np.uint32, v.Int64: np.int64, v.UInt64: np.uint64,
-                      v.Bool: np.bool_}[dr.type_v(array_type)])
+    dtype = _dtype(array_type)
     values = np.asarray(values)
     raw = np.empty(values.size * dtype.itemsize + ALIGNMENT, np.uint8)
     start = -raw.ctypes.data % ALIGNMENT
     aligned = raw[start: start + values.size * dtype.itemsize].view(dtype)
     aligned.reshape(values.shape)[...] = values  # one pass: gathers strided views, converts
     return array_type(aligned)
+
+
+@functools.cache
+def _dtype(array_type) -> np.dtype:
+    """The NumPy dtype of a Dr.Jit array type's elements (looked up once per type: the lookup
+    costs more than converting the few hundred values of a small array)."""
+    import drjit as dr
+
+    v = dr.VarType
+    return np.dtype({v.Float32: np.float32, v.Float64: np.float64, v.Int32: np.int32,
+                     v.UInt32: np.uint32, v.Int64: np.int64, v.UInt64: np.uint64,
+                     v.Bool: np.bool_}[dr.type_v(array_type)])
 
 
 def freeze(function, **options):

@@ -36,7 +36,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from mitsonar.frames import Pose
-from mitsonar.sensors.sonar import PRE_ROLL, TRACE_BATCH, Sonar, beam_seed
+from mitsonar.sensors.sonar import PRE_ROLL, Sonar, beam_seed
 from mitsonar.signal.band import Band
 from mitsonar.signal.detection import Echoes
 from mitsonar.signal.ofdm import PAPER_LISTEN, Schedule, code_set
@@ -52,6 +52,9 @@ POSE_TOLERANCE = (0.01, np.radians(0.5))
 #: them with the array moved; farther, the hits are traced again
 #: (tests/sensors/test_shared_hits.py: reuse over 3 cm against re-tracing).
 RETRACE_TOLERANCE = (0.05, np.radians(2.0))
+#: Schedule cycles whose direct paths (spectrum and blanking envelopes, ~3 MB each) an
+#: :class:`OfdmSonar` keeps: a 117-beam frame has 5, repeated every frame.
+DIRECT_KEPT = 16
 
 
 @dataclass(frozen=True)
@@ -136,6 +139,7 @@ class OfdmSonar:
         self.synth = EchoSynthesizer(self.band)
         self.processor = EchoProcessor(cfg.geometry, self.band, cfg.medium.speed_of_sound,
                                        cfg.detection, cfg.noise_rms)
+        self._directs: dict = {}  # schedule cycle -> direct paths' spectrum and envelopes
 
     def schedule(self, directions) -> Schedule:
         """Schedule of beams towards ``directions`` (B, 3), checked against the field of view."""
@@ -168,10 +172,15 @@ class OfdmSonar:
         poses = np.zeros((n, 4, 4))
         crosstalk_db = np.full(n, np.nan)
         tables, cycle_beams = [], []
+        fired = [pose_at(start_time + t) for t in schedule.transmit_time]  # each beam's pose
+        traced = {}  # beams traced for the whole frame at once: where one batch holds them all
+        if not self._shares(crosstalk) and n <= self.sonar.trace_batch():
+            every = np.arange(n)
+            traced = dict(zip(every, self._trace(every, fired, schedule.directions, seed)))
         for c in range(len(schedule.cycle_start)):  # cycles follow each other in time
             beams = np.nonzero(schedule.cycle == c)[0]
-            result = self._cycle(schedule, beams, pose_at, start_time, seed, crosstalk,
-                                 channels)
+            result = self._cycle(schedule, beams, [fired[b] for b in beams], traced, seed,
+                                 crosstalk, channels)
             for key, target in (("detected", detected), ("depth", depth), ("amplitude", amplitude),
                                 ("crosstalk", crosstalk_db)):
                 target[beams] = result[key]
@@ -182,21 +191,33 @@ class OfdmSonar:
         return Frame(schedule, detected, depth, amplitude, points,
                      Echoes.gather(tables, cycle_beams), poses, crosstalk_db, start_time)
 
+    def _shares(self, crosstalk: bool) -> bool:
+        """Whether a frame's cycles share their hits (``shared_hits``, module docstring)."""
+        return self.shared_hits and not crosstalk and self.sonar.tracer.shares_hits()
+
+    def _trace(self, beams, poses, directions, seed: int) -> list:
+        """Traces of ``beams`` (B,) fired from ``poses`` (B) towards ``directions`` (B, 3),
+        each in its own cone, :meth:`Sonar.trace_batch
+        <mitsonar.sensors.sonar.Sonar.trace_batch>` at a time."""
+        size = self.sonar.trace_batch()
+        return [trace for first in range(0, len(beams), size)  # a batch at a time
+                for trace in self.sonar.tracer.trace_many(
+                    poses[first:first + size], directions[first:first + size],
+                    [beam_seed(seed, b) for b in beams[first:first + size]])]
+
     def _beam_echoes(self, beams, poses, directions, offsets, codes, seed: int,
-                     apart: bool) -> np.ndarray:
+                     apart: bool, traced: dict | None = None) -> np.ndarray:
         """Echo spectra on the band of a cycle's beams, each beam traced in its own cone from
-        its own pose (the reference of the shared path): (B, N_rx, nb), or (1, N_rx, nb) with
-        every beam's echoes on one grid per distinct waveform, one FFT per waveform and channel,
-        unless they are asked for ``apart`` (the cross-talk measurement)."""
+        its own pose (the reference of the shared path; ``traced``: beams traced already):
+        (B, N_rx, nb), or (1, N_rx, nb) with every beam's echoes on one grid per distinct
+        waveform, one FFT per waveform and channel, unless they are asked for ``apart`` (the
+        cross-talk measurement)."""
         sonar = self.sonar
-        beam_groups = []  # per beam: its (paths, waveform) groups, fired at its offset
-        for first in range(0, len(beams), TRACE_BATCH):  # beams traced a batch at a time
-            batch = slice(first, first + TRACE_BATCH)
-            traces = sonar.tracer.trace_many(poses[batch], directions[batch],
-                                             [beam_seed(seed, b) for b in beams[batch]])
-            beam_groups += [[(p.delayed(offset), w)
-                             for p, w in sonar.echo_groups(trace.paths, code, self.synth)]
-                            for trace, offset, code in zip(traces, offsets[batch], codes[batch])]
+        traces = [traced[b] for b in beams] if traced else \
+            self._trace(beams, poses, directions, seed)
+        beam_groups = [[(p.delayed(offset), w)  # per beam: its groups, fired at its offset
+                        for p, w in sonar.echo_groups(trace.paths, code, self.synth)]
+                       for trace, offset, code in zip(traces, offsets, codes)]
         n_rx = sonar.config.geometry.rx.count
         if apart:
             return np.stack([self.synth.groups_spectrum(groups, n_rx) for groups in beam_groups])
@@ -233,7 +254,30 @@ class OfdmSonar:
                 simulated[i] = pose
         return total, simulated
 
-    def _cycle(self, schedule: Schedule, beams, pose_at, start_time: float, seed: int,
+    def _direct(self, directions, offsets, codes) -> tuple[np.ndarray, np.ndarray]:
+        """The direct transmitter -> receiver paths of a cycle's beams (directions (B, 3),
+        firing times ``offsets`` (B,) [s] within the cycle, codes (B,)): their summed spectrum
+        on the band (N_rx, nb) and each beam's envelope of them (B, n_samples) [Pa], for
+        blanking. They depend on the schedule alone, not on the pose: computed once per
+        schedule cycle and receiver, kept for later frames (``DIRECT_KEPT`` cycles)."""
+        key = (np.ascontiguousarray(directions, dtype=float).tobytes(),
+               np.ascontiguousarray(offsets, dtype=float).tobytes(), tuple(codes),
+               self.processor)
+        if key not in self._directs:
+            n_rx = self.sonar.config.geometry.rx.count
+            tracer = self.sonar.tracer
+            spectrum = self.synth.groups_spectrum(
+                [(tracer.direct_paths(u).delayed(offset), code)
+                 for u, offset, code in zip(directions, offsets, codes)], n_rx)
+            if len(self._directs) >= DIRECT_KEPT:
+                self._directs.clear()
+            kept = (spectrum, self.processor.noiseless_envelopes(spectrum, directions, codes))
+            for array in kept:  # shared by later frames: read only
+                array.setflags(write=False)
+            self._directs[key] = kept
+        return self._directs[key]
+
+    def _cycle(self, schedule: Schedule, beams, poses, traced: dict, seed: int,
                crosstalk: bool, channels: bool) -> dict:
         sonar = self.sonar
         n_rx = sonar.config.geometry.rx.count
@@ -241,21 +285,17 @@ class OfdmSonar:
         offsets = schedule.transmit_time[beams] - t0  # firing times within the cycle
         codes = [schedule.codes[k] for k in schedule.code_index[beams]]
         directions = schedule.directions[beams]
-        poses = [pose_at(start_time + schedule.transmit_time[b]) for b in beams]
-        if self.shared_hits and not crosstalk and sonar.tracer.shares_hits():
+        if self._shares(crosstalk):
             echoes, poses = self._shared_echoes(beams, poses, directions, offsets, codes, seed)
         else:
             echo_spectra = self._beam_echoes(beams, poses, directions, offsets, codes, seed,
-                                             apart=crosstalk)
+                                             crosstalk, traced)
             echoes = np.sum(echo_spectra, axis=0)
-        direct_total = self.synth.groups_spectrum(
-            [(sonar.tracer.direct_paths(u).delayed(offset), code)
-             for u, offset, code in zip(directions, offsets, codes)], n_rx)
+        direct_total, blank = self._direct(directions, offsets, codes)
         total = echoes + direct_total
         band, noise_rms = self.band, sonar.config.noise_rms
         noise_seed = beam_seed(seed, int(beams[0]), _NOISE_STREAM)
         processor = self.processor
-        blank = processor.noiseless_envelopes(direct_total, directions, codes)
         listening = dict(transmit_times=offsets,
                          max_path_length=2.0 * sonar.config.max_range)  # every code's window
         if channels:  # the recording, as a dataset keeps it

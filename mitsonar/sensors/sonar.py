@@ -40,6 +40,11 @@ PRE_ROLL = 0.5e-3
 #: casts once for several beams, few enough to bound memory (~20 MB of patch factors and
 #: temporaries per beam).
 TRACE_BATCH = 8
+#: Rays cast together at most when more beams than ``TRACE_BATCH`` fit (beams of few rays: the
+#: paper model's 25 reflectors): a batch of ``TRACE_BATCH`` beams of the default 32 x 32 grid.
+#: Each cast of the scene costs ~10 ms whatever its size (the surface interaction's dispatch
+#: over the scene's shapes), so an OFDM cycle of such beams is traced in one.
+TRACE_RAYS = TRACE_BATCH * 32 * 32
 
 
 @dataclass(frozen=True)
@@ -260,6 +265,12 @@ class Sonar:
         self.processor = EchoProcessor(cfg.geometry, self.band, cfg.medium.speed_of_sound,
                                        cfg.detection, cfg.noise_rms)
         self._direct_envelopes: dict = {}
+
+    def trace_batch(self) -> int:
+        """Beams traced together (:meth:`AcousticTracer.trace_many
+        <mitsonar.trace.tracer.AcousticTracer.trace_many>`): ``TRACE_BATCH``, or as many as
+        ``TRACE_RAYS`` rays allow where a beam casts fewer (its grid before refinement)."""
+        return max(TRACE_BATCH, TRACE_RAYS // self.tracer.grid_rays)
 
     def fov_grid(self, step: float) -> np.ndarray:
         """Beam directions on a ``step`` [rad] grid over the field of view (see

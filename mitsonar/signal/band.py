@@ -27,6 +27,11 @@ BASEBAND_OVERSAMPLING = 2
 #: real form's impulse grid and receive chain are complex at the full rate too; measured: OFDM
 #: frames at 0.65 of the rate 13 % faster, pings at 0.17 of it 30 %.)
 BASEBAND_AUTO = 0.7
+#: Codes' system responses kept by :func:`code_response` for the whole process (~54 kB each;
+#: a 117-beam OFDM frame asks for ~80).
+RESPONSES_KEPT = 256
+
+_responses: dict = {}
 
 
 @dataclass(frozen=True)
@@ -130,7 +135,9 @@ class Band:
         self.grid_bins = (band_bins - self.shift_bin) % self.n_grid
         # The recording's transform bins of the band, with the factor from the grid's spectrum
         # to a(t) exp(-j 2 pi carrier t) (module docstring).
-        self._output_bins = self.grid_bins if baseband else band_bins
+        # (Real recordings' bins are contiguous: a slice, which NumPy writes several times
+        # faster than an index array.)
+        self._output_bins = self.grid_bins if baseband else self.bins
         self._output_scale = self.n_grid / self.n_fft \
             * np.exp(-2j * np.pi * self.carrier * self.start_time)
 
@@ -213,3 +220,18 @@ class Band:
         half = np.zeros((len(spectrum), self.n_fft // 2 + 1), dtype=complex)
         half[:, self.bins] = 0.5 * spectrum
         return sfft.irfft(half, n=self.n_fft, axis=-1, workers=-1)[:, : self.n_samples]
+
+
+def code_response(band: Band, waveform, frequencies) -> np.ndarray:
+    """``band.system_response(waveform, frequencies)`` (:meth:`Band.system_response`), kept per
+    (waveform, frequencies, reference rate, transducer) for the whole process: the direct sum
+    over a code's samples costs ~0.3 s per code and every cycle of a frame fires codes again,
+    and a new Sonar (a new synthesizer) on the same settings asks for the same ones."""
+    frequencies = np.asarray(frequencies, dtype=float)
+    key = (waveform, frequencies.tobytes(), band.reference_rate, band.transducer,
+           band.transducer_response)
+    if key not in _responses:
+        if len(_responses) >= RESPONSES_KEPT:
+            _responses.clear()
+        _responses[key] = band.system_response(waveform, frequencies)
+    return _responses[key]

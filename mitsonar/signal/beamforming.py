@@ -121,9 +121,13 @@ class Beamformer:
             + (blocks * n_rx * length)[:, None]
         # < 30 rad: phase error < 2e-6 rad
         phase = phasor(2 * np.pi * np.reshape(carriers, (-1, 1)) * delays)
-        data = np.stack([(1 - frac) * phase, frac * phase], axis=-1).reshape(rows, -1)
-        columns = np.stack([cols, cols + 1], axis=-1).reshape(rows, -1)
-        return data, columns, blocks
+        data = np.empty(phase.shape + (2,), np.result_type(frac, phase))  # no temporaries
+        np.multiply(1 - frac, phase, out=data[..., 0])
+        np.multiply(frac, phase, out=data[..., 1])
+        columns = np.empty(cols.shape + (2,), cols.dtype)
+        columns[..., 0] = cols
+        np.add(cols, 1, out=columns[..., 1])
+        return data.reshape(rows, -1), columns.reshape(rows, -1), blocks
 
     def windows(self, channels: np.ndarray, sets, samples) -> np.ndarray:
         """(N_rx x L, E) windows for :meth:`operator`: column e holds channel set ``sets[e]`` of

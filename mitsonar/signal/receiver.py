@@ -91,6 +91,10 @@ from mitsonar.signal.looks import Looks, Waveforms
 #: Cross-talk between the waveforms of one recording is followed out to the lags where their
 #: range profiles fall below this (:meth:`EchoProcessor._crosstalk`).
 CROSS_FLOOR = 1e-4
+#: Cross-talk tables (:meth:`EchoProcessor._crosstalk`) kept, one per distinct list of a
+#: recording's waveforms (an OFDM schedule's cycles; 1.4 MB each for the paper preset's
+#: 25 codes, 4.6 MB behind resonant transducers).
+CROSS_TABLES_KEPT = 16
 
 
 class EchoProcessor:
@@ -115,6 +119,7 @@ class EchoProcessor:
         self._filters = {}
         self._profiles = {}
         self._crosstalks = {}
+        self._crosstalk_tables = {}  # the kinds of a recording's beams -> their table
         self._cone = None
 
     def matched_filter(self, waveform=None):
@@ -362,20 +367,25 @@ class EchoProcessor:
         an echo of kind k' leaves decoded for kind k at lags -S..S, S the longest range profile
         above ``CROSS_FLOOR``, each computed once per pair of kinds; the array factors at each
         beam's own frequency."""
-        span = max(int(np.flatnonzero(self.range_profile(w)[0] >= CROSS_FLOOR).max())
-                   for w in waves.kinds)
-        missing = [(a, b) for a in waves.kinds for b in waves.kinds
-                   if (a, b, span) not in self._crosstalks]
-        if missing:
-            band = self.band
-            # An echo of kind b, decoded for kind a, delayed by S samples (lag -S at sample 0).
-            delay = np.exp(-2j * np.pi * band.frequencies * span / band.sample_rate)
-            spectra = np.stack([band.system_spectrum(b)[band.bins] * self.matched_filter(a)[0]
-                                for a, b in missing]) * delay
-            lobes = np.abs(band.to_analytic(spectra)[:, : 2 * span + 1])
-            self._crosstalks.update(((a, b, span), x) for (a, b), x in zip(missing, lobes))
-        table = np.stack([[self._crosstalks[a, b, span] for b in waves.kinds]
-                          for a in waves.kinds])
+        kinds = tuple(waves.kinds)
+        if kinds not in self._crosstalk_tables:  # each OFDM schedule cycle's once
+            span = max(int(np.flatnonzero(self.range_profile(w)[0] >= CROSS_FLOOR).max())
+                       for w in kinds)
+            missing = [(a, b) for a in kinds for b in kinds
+                       if (a, b, span) not in self._crosstalks]
+            if missing:
+                band = self.band
+                # An echo of kind b, decoded for kind a, delayed by S samples (lag -S at 0).
+                delay = np.exp(-2j * np.pi * band.frequencies * span / band.sample_rate)
+                spectra = np.stack([band.system_spectrum(b)[band.bins]
+                                    * self.matched_filter(a)[0] for a, b in missing]) * delay
+                lobes = np.abs(band.to_analytic(spectra)[:, : 2 * span + 1])
+                self._crosstalks.update(((a, b, span), x) for (a, b), x in zip(missing, lobes))
+            if len(self._crosstalk_tables) >= CROSS_TABLES_KEPT:
+                self._crosstalk_tables.clear()
+            self._crosstalk_tables[kinds] = np.stack(
+                [[self._crosstalks[a, b, span] for b in kinds] for a in kinds])
+        table = self._crosstalk_tables[kinds]
         frequencies = np.array([float(w.frequency) for w in waves.kinds])[waves.kind]
         g = self.geometry
         return (table, multiecho.array_gains(g.tx_positions, u, frequencies, self.c),

@@ -35,7 +35,7 @@ import scipy.fft as sfft
 
 from mitsonar.jit import backend, freeze, to_jit
 from mitsonar.physics.waveforms import phasor
-from mitsonar.signal.band import Band, Recording
+from mitsonar.signal.band import Band, Recording, code_response
 from mitsonar.trace.hitpaths import HitPaths, MergedHits, pair_gain
 from mitsonar.trace.paths import Paths
 
@@ -49,26 +49,10 @@ from mitsonar.trace.paths import Paths
 GRID_REDUCE = "Expand"
 #: Drive spectra kept by a synthesizer (~1 MB each).
 DRIVES_KEPT = 64
-#: Codes' system responses kept by :func:`code_response` for every synthesizer of the process
-#: (~54 kB each; a 117-beam frame asks for ~80).
-RESPONSES_KEPT = 256
-
-_responses: dict = {}
-
-
-def code_response(band: Band, waveform, frequencies) -> np.ndarray:
-    """``band.system_response(waveform, frequencies)`` (:meth:`Band.system_response`), kept per
-    (waveform, frequencies, reference rate, transducer) for the whole process: the direct sum
-    over a code's samples costs ~0.3 s per code and every cycle of a frame fires codes again,
-    and a new Sonar (a new synthesizer) on the same settings asks for the same ones."""
-    frequencies = np.asarray(frequencies, dtype=float)
-    key = (waveform, frequencies.tobytes(), band.reference_rate, band.transducer,
-           band.transducer_response)
-    if key not in _responses:
-        if len(_responses) >= RESPONSES_KEPT:
-            _responses.clear()
-        _responses[key] = band.system_response(waveform, frequencies)
-    return _responses[key]
+#: Factored path sets gridded by one launch of the pair kernel while their rows hold at most
+#: about this many samples: an OFDM cycle's beams of few patches (the paper model's) share one,
+#: a broadband beam's rows (25 x 8 600 samples) get their own, its grid in cache.
+PAIR_BATCH_SAMPLES = 1 << 19
 
 
 def _spread(acc, pos, row, gain, first_order, rotation, half_width: int, inv_var: float,
@@ -160,10 +144,11 @@ def _pair_kernel():
     Arguments: the flat grid's size, thread indices 0 .. H x N_rx - 1, the 7 transmit and 7
     receive factors (:meth:`HitPaths.kernel_factors`, already demodulated and in grid units),
     transmit positions (H x N_tx,) and receive offsets (H x N_rx,) [samples] (a pair's position
-    is their sum), N_tx, N_rx, the row length, the rows' first sample (negated), half_width,
-    1/sigma^2, the recording's sample count, and the offset between transmit elements' rows
-    (0: a row per receive element; N_rx x the row length: a row per element pair, transmit
-    element major). Returns the Int64 grid of interleaved (re, im).
+    is their sum), N_tx, N_rx, each patch's row length and the flat index of its rows' sample 0
+    (H,) (several path sets, each on rows of its own, share a launch), half_width, 1/sigma^2,
+    the recording's sample count, and the offset between transmit elements' rows (0: a row per
+    receive element; N_rx x the row length: a row per element pair, transmit element major).
+    Returns the Int64 grid of interleaved (re, im).
     """
     import drjit as dr
     Float32, Float64, Int64 = backend().Float32, backend().Float64, backend().Int64
@@ -172,7 +157,8 @@ def _pair_kernel():
                      half_width, inv_var, n_samples, element_stride):
         acc = dr.zeros(Int64, 2 * size)
         patch = thread // n_rx
-        row = Int64(thread - patch * n_rx) * stride + row_offset
+        row = Int64(thread - patch * n_rx) * dr.gather(Int64, stride, patch) \
+            + dr.gather(Int64, row_offset, patch)
         rx_values = [dr.gather(Float32, x, thread) for x in rx]
         rx_u = dr.gather(Float64, rx_pos, thread)
         for i in range(n_tx):  # the patch's transmit elements (unrolled)
@@ -187,19 +173,23 @@ def _pair_kernel():
     return freeze(spread_pairs, warn_after=256)
 
 
-def _fixed_point_scale(peak: float) -> float | None:
-    """Scale of the grids' fixed point for contributions up to ``peak`` (None if 0): a quantum of
-    2^-36 of the largest one. Up to 2^25 terms of that size cannot overflow int64, and the
-    rounding (1.5e-11 relative per term) is far below the synthesis tolerance."""
-    return None if peak == 0.0 else 2.0 ** (36 - np.ceil(np.log2(peak)))
+def _fixed_point_scale(peak):
+    """Scale of the grids' fixed point for contributions up to ``peak`` (a float, or an array
+    of several grids' peaks; 0 where the peak is): a quantum of 2^-36 of the largest one. Up to
+    2^25 terms of that size cannot overflow int64, and the rounding (1.5e-11 relative per term)
+    is far below the synthesis tolerance."""
+    peak = np.asarray(peak, dtype=float)
+    return np.where(peak > 0.0, 2.0 ** (36 - np.ceil(np.log2(np.where(peak > 0.0, peak, 1.0)))),
+                    0.0)
 
 
-def _folded(acc, scale: float, n_rows: int, n_grid: int, origin: int) -> np.ndarray:
-    """The (n_rows, n_grid) complex64 grid of a kernel's fixed-point rows of interleaved (re, im):
-    column c of a row holds sample (origin + c) modulo n_grid, added onto the period in
-    contiguous pieces (at most a few)."""
-    padded = acc.numpy().reshape(n_rows, -1, 2)
-    grid = np.zeros((n_rows, n_grid), dtype=np.complex64)
+def _folded(padded: np.ndarray, scale: float, n_grid: int, origin: int,
+            grid: np.ndarray | None = None) -> np.ndarray:
+    """The (n_rows, n_grid) complex64 grid (``grid``, or a new one) of a kernel's fixed-point
+    rows (n_rows, width, 2) of interleaved (re, im): column c of a row holds sample (origin + c)
+    modulo n_grid, added onto the period in contiguous pieces (at most a few)."""
+    if grid is None:
+        grid = np.zeros((len(padded), n_grid), dtype=np.complex64)
     column = 0
     while column < padded.shape[1]:
         first = (origin + column) % n_grid
@@ -282,10 +272,10 @@ class EchoSynthesizer:
         grid is returned in single precision (complex64: its rounding, ~6e-8 of the largest
         sample, is far below the band floor; its FFTs take half the time). Paths whose kernel
         lies wholly outside the recording are left out. ``per_pair`` and ``period``: factored
-        paths on a row per element pair, on a longer period (:meth:`_pair_grid`).
+        paths on a row per element pair, on a longer period (:meth:`_pair_grids`).
         """
         if isinstance(paths, HitPaths):
-            return self._pair_grid(paths, n_channels, per_pair, period)
+            return self._pair_grids([paths], n_channels, per_pair, period)[0]
         if isinstance(paths, MergedHits):
             return self._merged_grid(paths, n_channels)
         import drjit as dr
@@ -305,8 +295,8 @@ class EchoSynthesizer:
         slope = None if paths.first_order is None else np.asarray(paths.first_order)[keep]
         bound = np.abs(gain) if slope is None else \
             np.abs(gain) + np.abs(slope) * (abs(omega) + fs * (hw + 1) * inv_var)
-        scale = _fixed_point_scale(np.max(bound, initial=0.0))
-        if len(channel) == 0 or scale is None:
+        scale = float(_fixed_point_scale(np.max(bound, initial=0.0)))
+        if len(channel) == 0 or scale == 0.0:
             return np.zeros((n_channels, band.n_grid), dtype=np.complex64)
         first_order = None if slope is None else (
             to_jit(Float64, slope.real * scale), to_jit(Float64, slope.imag * scale),
@@ -318,7 +308,7 @@ class EchoSynthesizer:
                                to_jit(Int64, channel * width - origin), gains, first_order,
                                dr.opaque(Float64, band.shift_bin / band.n_grid), hw, inv_var,
                                fs * inv_var, True)
-        return _folded(acc, scale, n_channels, band.n_grid, origin)
+        return _folded(acc.numpy().reshape(n_channels, -1, 2), scale, band.n_grid, origin)
 
     def _merged_grid(self, paths: MergedHits, n_channels: int) -> np.ndarray:
         """:meth:`impulse_grid` of narrow-band merged paths held as Dr.Jit arrays."""
@@ -332,9 +322,9 @@ class EchoSynthesizer:
         first, last = ((t + paths.offset - band.start_time) * fs for t in paths.span)
         omega = 2 * np.pi * (paths.frequency - band.fft_frequencies[band.shift_bin])  # [rad/s]
         # The bound of flat paths' (impulse_grid), from the merge's bounds on |a| and |b|.
-        scale = _fixed_point_scale(paths.peaks[0] + paths.peaks[1]
-                                   * (abs(omega) + fs * (hw + 1) * inv_var))
-        if len(paths) == 0 or scale is None or last <= -hw or first >= band.n_samples + hw:
+        scale = float(_fixed_point_scale(paths.peaks[0] + paths.peaks[1]
+                                         * (abs(omega) + fs * (hw + 1) * inv_var)))
+        if len(paths) == 0 or scale == 0.0 or last <= -hw or first >= band.n_samples + hw:
             return np.zeros((n_channels, band.n_grid), dtype=np.complex64)
         u = (paths.centre + (paths.offset - band.start_time)) * fs
         (a_re, a_im), (b_re, b_im) = paths.gain, paths.first_order
@@ -346,7 +336,7 @@ class EchoSynthesizer:
                                gains, first_order,
                                dr.opaque(Float64, band.shift_bin / band.n_grid), hw, inv_var,
                                fs * inv_var, (u > -hw) & (u < band.n_samples + hw))
-        return _folded(acc, scale, n_channels, band.n_grid, origin)
+        return _folded(acc.numpy().reshape(n_channels, -1, 2), scale, band.n_grid, origin)
 
     def _window(self, first: float, last: float) -> tuple[int, int]:
         """(origin, width) of the kernels' grid rows for paths at positions ``first`` ..
@@ -354,54 +344,92 @@ class EchoSynthesizer:
         holds sample origin + c. The width is a power of two (each width is a kernel recording
         of its own) where that is narrower than the whole recording and its kernel margins:
         paths spanning a short time, such as direct paths, make small grids."""
+        origin, width = self._windows(np.array([first]), np.array([last]))
+        return int(origin[0]), int(width[0])
+
+    def _windows(self, first: np.ndarray, last: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`_window` (origin, width) (S,) of path sets at ``first`` .. ``last`` (S,)."""
         hw = self.half_width
-        span = int(np.floor(last) - np.floor(first)) + 2 * hw + 1
-        width = 1 << (span - 1).bit_length()
-        if width >= self.band.n_samples + 4 * hw:
-            return -2 * hw, self.band.n_samples + 4 * hw
-        return int(np.floor(first)) - hw, width
+        span = (np.floor(last) - np.floor(first)).astype(np.int64) + 2 * hw + 1
+        width = np.left_shift(1, np.frexp(span - 1)[1]).astype(np.int64)  # power of 2 >= span
+        full = width >= self.band.n_samples + 4 * hw
+        return (np.where(full, -2 * hw, np.floor(first).astype(np.int64) - hw),
+                np.where(full, self.band.n_samples + 4 * hw, width))
 
     def _demodulation(self, u: np.ndarray) -> np.ndarray:
         """exp(-j 2 pi f_d u) (complex64) at positions ``u`` [samples], f_d the band centre."""
         cycles = self.band.shift_bin / self.band.n_grid * u
         return phasor(-2 * np.pi * (cycles - np.floor(cycles)))
 
-    def _pair_grid(self, paths: HitPaths, n_channels: int, per_pair: bool = False,
-                   period: int | None = None, by_arrival: bool = False) -> np.ndarray:
-        """:meth:`impulse_grid` of factored paths by :func:`_pair_kernel`; with ``per_pair``, a
-        row per element pair ((N_tx x n_channels, period), transmit element major), on a
-        period of ``period`` samples (default the band's n_grid; at least its n_samples + 4 x
-        half_width); with ``by_arrival``, the recorded patches gridded in order of arrival."""
-        import drjit as dr
+    def impulse_grids(self, sets, n_channels: int) -> np.ndarray:
+        """:meth:`impulse_grid` (S, n_channels, n_grid) of sets of factored paths, each as
+        gridded alone, together (:meth:`_pair_grids`)."""
+        return self._pair_grids(sets, n_channels)
+
+    def _pair_grids(self, sets, n_channels: int, per_pair: bool = False,
+                    period: int | None = None, by_arrival: bool = False) -> np.ndarray:
+        """:meth:`impulse_grid` (S, rows, period) of sets of factored paths (:class:`HitPaths`
+        with the same element counts) by :func:`_pair_kernel`, each as gridded alone (bit for
+        bit: its own window, fixed-point scale and sums), the sets' windows and scales as array
+        operations over all patches, and one launch for as many sets as ``PAIR_BATCH_SAMPLES``
+        allows, each set on rows of its own. With ``per_pair``, a row per element pair
+        (N_tx x n_channels rows, transmit element major), on a period of ``period`` samples
+        (default the band's n_grid; at least its n_samples + 4 x half_width); with
+        ``by_arrival``, the recorded patches gridded in order of arrival."""
         Float64, Int64, UInt32 = backend().Float64, backend().Int64, backend().UInt32
 
         band = self.band
         fs, hw = band.sample_rate, self.half_width
-        n_tx, n_rx = paths.elements
+        n_tx, n_rx = sets[0].elements
         if n_rx > n_channels:
             raise ValueError(f"path channel out of range 0..{n_channels - 1}")
+        n_rows = n_tx * n_channels if per_pair else n_channels
+        period = band.n_grid if period is None else period
+        grids = np.zeros((len(sets), n_rows, period), dtype=np.complex64)
+        paths = HitPaths.concatenate(sets)
+        owner = np.repeat(np.arange(len(sets)), [len(p.tx_delay) for p in sets])
         earliest, latest = ((t - band.start_time) * fs for t in paths.arrivals)
         rows = np.flatnonzero((latest > -hw) & (earliest < band.n_samples + hw))  # a pair in
         if by_arrival:
             rows = rows[np.argsort(earliest[rows], kind="stable")]
-        paths = paths.select(rows)
-        scale = _fixed_point_scale(np.max(paths.gain_bound(), initial=0.0))
-        n_rows = n_tx * n_channels if per_pair else n_channels
-        period = band.n_grid if period is None else period
-        if scale is None:
-            return np.zeros((n_rows, period), dtype=np.complex64)
+        paths, owner, earliest, latest = paths.select(rows), owner[rows], earliest[rows], \
+            latest[rows]
+        peak, first, last = np.zeros((3, len(sets))) + [[0.0], [np.inf], [-np.inf]]
+        np.maximum.at(peak, owner, paths.gain_bound())
+        np.minimum.at(first, owner, earliest)
+        np.maximum.at(last, owner, latest)
+        scale = _fixed_point_scale(peak)
+        gridded = scale > 0.0  # sets with a recorded pair of some gain
+        origin, width = self._windows(np.maximum(np.where(gridded, first, 0.0), -hw),
+                                      np.minimum(np.where(gridded, last, 0.0),
+                                                 band.n_samples + hw))
+        size = np.where(gridded, n_rows * width, 0)
+        launch = (np.cumsum(size) - size) // PAIR_BATCH_SAMPLES
         tx_u = (paths.tx_delay - band.start_time) * fs  # a pair's position: tx_u + rx_u
         rx_u = paths.rx_delay * fs
-        tx, rx = paths.scaled(self._demodulation(tx_u), scale * self._demodulation(rx_u)) \
-            .kernel_factors()
-        thread = to_jit(UInt32, np.arange(rx_u.size, dtype=np.uint32))
-        origin, width = self._window(max(earliest[rows].min(), -hw),
-                                     min(latest[rows].max(), band.n_samples + hw))
-        acc = _pair_kernel()(n_rows * width, thread, tx, rx, to_jit(Float64, tx_u),
-                             to_jit(Float64, rx_u), n_tx, n_rx, width,
-                             dr.opaque(Int64, -origin), hw, 1.0 / self.sigma**2, band.n_samples,
-                             n_channels * width if per_pair else 0)
-        return _folded(acc, scale, n_rows, period, origin)
+        paths = paths.scaled(self._demodulation(tx_u),
+                             scale[owner][:, None] * self._demodulation(rx_u))
+        for group in np.unique(launch[gridded]):  # launches (one for small sets)
+            members = np.flatnonzero(gridded & (launch == group))
+            start = np.zeros(len(sets), np.int64)
+            start[members] = np.cumsum(size[members]) - size[members]
+            mine = np.flatnonzero(np.isin(owner, members))
+            part = paths.select(mine)
+            tx, rx = part.kernel_factors()
+            total = int(size[members].sum())
+            thread = to_jit(UInt32, np.arange(mine.size * n_rx, dtype=np.uint32))
+            whose = owner[mine]
+            acc = _pair_kernel()(1 << (total - 1).bit_length(), thread, tx, rx,
+                                 to_jit(Float64, tx_u[mine]), to_jit(Float64, rx_u[mine]), n_tx,
+                                 n_rx, to_jit(Int64, width[whose]),
+                                 to_jit(Int64, start[whose] - origin[whose]), hw,
+                                 1.0 / self.sigma**2, band.n_samples,
+                                 int(n_channels * width[members[0]]) if per_pair else 0)
+            flat = acc.numpy()
+            for k in members:  # each set's rows onto its period
+                rows_k = flat[2 * start[k]: 2 * (start[k] + size[k])].reshape(n_rows, -1, 2)
+                _folded(rows_k, scale[k], period, int(origin[k]), grids[k])
+        return grids
 
     def analytic(self, paths: Paths, n_channels: int, waveform=None) -> np.ndarray:
         """Noiseless :meth:`Band.to_analytic` recordings (n_channels, n_samples) of paths driven
@@ -416,24 +444,36 @@ class EchoSynthesizer:
         """Summed analytic spectrum on the band (n_channels, nb) of [(paths, waveform)] groups;
         spectra of several calls add up to their joint recording (see :meth:`Band.to_samples`).
 
-        The paths of each distinct waveform go onto an impulse grid of their own (one kernel
-        launch and one batched FFT per waveform: a grid of n_channels rows stays in cache, where
-        one grid for the ten code tones of an OFDM cycle made the gridding 30 % slower).
+        The paths of each distinct waveform go onto an impulse grid of their own (a grid of
+        n_channels rows stays in cache, where one grid for the ten code tones of an OFDM cycle
+        made the gridding 30 % slower); factored paths of every waveform are gridded together
+        (:meth:`impulse_grids`), and the grids transformed by one batched FFT.
         """
         band = self.band
         by_waveform: dict = {}
         for paths, waveform in groups:
             by_waveform.setdefault(band.pulse if waveform is None else waveform, []).append(paths)
-        spectrum = np.zeros((n_channels, len(band.frequencies)), complex)
-        for waveform, parts in by_waveform.items():
-            kinds: dict = {}  # each kind of paths (and merge frequency) gridded by its kernel
+        if not by_waveform:
+            return np.zeros((n_channels, len(band.frequencies)), complex)
+        kinds = []  # per waveform: each kind of paths (and merge frequency), gridded by its kernel
+        for parts in by_waveform.values():
+            same: dict = {}
             for p in parts:
-                kinds.setdefault((type(p), getattr(p, "frequency", None)), []).append(p)
-            grid = sum(self.impulse_grid(kind.concatenate(same), n_channels)
-                       for (kind, _), same in kinds.items())
-            spectrum += sfft.fft(grid, axis=-1, workers=-1)[:, band.grid_bins] \
-                * (band.system_spectrum(waveform)[band.bins] * self._deconvolution)
-        return spectrum
+                same.setdefault((type(p), getattr(p, "frequency", None)), []).append(p)
+            kinds.append([kind.concatenate(members) for (kind, _), members in same.items()])
+        factored = [p for each in kinds for p in each if isinstance(p, HitPaths)]
+        hit_grids = self.impulse_grids(factored, n_channels) if factored else ()
+        if len(factored) == len(kinds) and all(len(each) == 1 for each in kinds):
+            grids = hit_grids  # one factored set per waveform: an OFDM cycle's beams
+        else:
+            hits = iter(hit_grids)
+            grids = np.stack([sum(next(hits) if isinstance(p, HitPaths) else
+                                  self.impulse_grid(p, n_channels) for p in each)
+                              for each in kinds])
+        filters = np.stack([band.system_spectrum(w)[band.bins] for w in by_waveform]) \
+            * self._deconvolution
+        spectra = sfft.fft(grids, axis=-1, workers=-1)[..., band.grid_bins] * filters[:, None]
+        return np.sum(spectra, axis=0)  # waveform after waveform
 
     def drive_spectra(self, waveforms, delays, frequencies) -> np.ndarray:
         """System spectra (N_tx, F) at ``frequencies`` (F,) [Hz] of transmit elements that each
@@ -484,7 +524,7 @@ class EchoSynthesizer:
         # Patches in order of arrival: the kernel's threads (a block of consecutive patches per
         # core) then add into a narrow band of columns of the N_tx x N_rx rows, which stays in
         # cache (in the trace's order they span the whole recording: measured 5x slower).
-        grid = self._pair_grid(paths, n_rx, per_pair=True, period=period, by_arrival=True)
+        grid = self._pair_grids([paths], n_rx, per_pair=True, period=period, by_arrival=True)[0]
         channels = sfft.fft(grid, axis=-1, workers=-1)[:, inside].reshape(n_tx, n_rx, -1)
         drives = self.drive_spectra(waveforms, delays, frequencies[inside]) \
             * (band.n_grid / band.n_fft / self._kernel_transform(nu[inside]))

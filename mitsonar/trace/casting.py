@@ -109,6 +109,11 @@ class RayCaster:
             self._grid = (aa, bb, da, db, np.hypot(aa, bb) <= half)
             self._refinable = np.hypot(aa, bb) <= np.tan(s.refine_radius)
 
+    @property
+    def grid_rays(self) -> int:
+        """Rays of a beam's grid before refinement (cells of its square, inside the cone or not)."""
+        return int(self._grid[0].size)
+
     def _taper(self, a, b):
         """Weight of a ray at tangent-plane offsets (a, b): 1 inside, fading to 0 at the cone
         edge."""

@@ -6,8 +6,7 @@ import numpy as np
 import mitsonar
 from mitsonar.scene.xml import material_xml, sphere_xml
 from mitsonar.sensors.ofdm_sonar import OfdmSonar
-from mitsonar.signal.band import Band
-from mitsonar.signal.synthesis import code_response
+from mitsonar.signal.band import Band, code_response
 
 
 def target_scene(scene_file, name, distance):

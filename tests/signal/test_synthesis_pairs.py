@@ -103,3 +103,21 @@ def test_patches_after_the_recording_are_left_out_of_the_merge(walls):
     assert _relative_difference(synth.groups_spectrum(groups, 25), every) < 1e-6
     with pytest.raises(ValueError, match="seconds must be >= 0"):
         groups[0][0].delayed(-1e-3)
+
+
+def test_path_sets_gridded_together_as_alone(walls, monkeypatch):
+    """Several factored path sets gridded together (``impulse_grids``, as an OFDM cycle's beams
+    of the paper preset are): each set's grid bit for bit what gridding it alone gives, whether
+    the sets share one kernel launch or not (``PAIR_BATCH_SAMPLES`` small), with a set wholly
+    after the recording (its grid zero) among them."""
+    from mitsonar.signal import synthesis
+    sonar = mitsonar.Sonar(walls[0], BROADBAND)
+    synth, band = sonar.synthesizer, sonar.band
+    traces = sonar.tracer.trace_many([IDENTITY] * 2, sonar.fov_grid(np.radians(30.0))[:2], [0, 1])
+    end = band.start_time + band.n_samples / band.sample_rate
+    sets = [traces[0].paths, traces[1].paths.delayed(1e-3), traces[0].paths.delayed(end)]
+    alone = np.stack([synth.impulse_grid(paths, 25) for paths in sets])
+    assert np.any(alone[0]) and np.any(alone[1]) and not np.any(alone[2])
+    np.testing.assert_array_equal(synth.impulse_grids(sets, 25), alone)
+    monkeypatch.setattr(synthesis, "PAIR_BATCH_SAMPLES", 1)  # a launch per set
+    np.testing.assert_array_equal(synth.impulse_grids(sets, 25), alone)
