@@ -42,25 +42,24 @@ Order and choices:
   off the axis is 16 cm from it. Where along the lobe the echo at the detected instant comes
   from is read from the receive array: the narrow-band delay-and-sum power at that instant over
   directions within ``ghost_exclusion`` of the beam (``arrival_step`` apart, refined by a
-  parabola through the strongest and its neighbours along each axis), summed over the looks.
-  Its maximum is the arrival direction u_a, seen from the receive origin o_R. A surface seen
-  obliquely (a floor, a wall at 50 deg) returns first from the near edge of the lobe, not from
-  its axis; that is where u_a points.
+  quadratic through the log-power of the strongest and its 8 neighbours), summed over the looks.
+  Its maximum is the direction of the plane wave that best explains the channels; corrected for
+  the receive array's near field it is the arrival direction u_a seen from the receive origin
+  o_R. A surface seen obliquely (a floor, a wall at 50 deg) returns first from the near edge of
+  the lobe, not from its axis; that is where u_a points.
 * Depth by the bistatic (7): d = (l^2 - b^2) / (2 (l - b cos theta_b)), with theta_b the angle
   between the beam and the baseline vector (TX -> RX origin); point = d * u in the sensor frame.
   With an arrival direction, (7) is solved from the receive side instead (range r from o_R along
-  u_a, theta_b measured from the RX -> TX vector): point = o_R + r u_a, and the depth is the
-  point's distance from the transmit origin.
+  u_a, theta_b measured from the RX -> TX vector, the arrays' curvature delays taken off the
+  path): point = o_R + r u_a, and the depth is the point's distance from the transmit origin.
+  Every echo of every setting (first, all, cells, image, off-beam) is placed so, by
+  :func:`mitsonar.signal.placement.place`.
 * Every echo (``echoes`` = "all" or "cells", :mod:`mitsonar.signal.multiecho`): instead of the
   strongest candidate, every echo over the local clutter and every independent range cell
   across extended echoes, each through the same part balance and side-lobe check, each with
   its own arrival direction, kept where that direction is trustworthy (``min_coherence``).
-  These are placed from the receive array's phase centre c (its element centroid, where the
-  delay-and-sum measures the arrival): point = c + r u_a with r from (7) for the path from the
-  transmit origin to the point and back to o_R. (The single-detection path above places from
-  o_R, as it always has; at 1-4 m that puts its points about 8 mm aside, along c - o_R.) The
-  strongest echo of each beam is its :class:`~mitsonar.signal.detection.Detections` entry; all
-  are in :class:`~mitsonar.signal.detection.Echoes`.
+  The strongest echo of each beam is its :class:`~mitsonar.signal.detection.Detections` entry;
+  all are in :class:`~mitsonar.signal.detection.Echoes`.
 * Receive images over each beam's lit cone (``echoes`` = "image", :mod:`mitsonar.signal.cone`):
   echoes and range cells chosen on where each beam's cone image peaks, checked and placed at
   that direction; reported as "cells" are.
@@ -336,7 +335,7 @@ class EchoProcessor:
                                                        resolution, clutter, s.clutter_margin)
         beams, samples = (np.concatenate(x) for x in zip(found, cells))
         apparent = cone.apparent_directions(self._cone, image, u, beams, samples, best)
-        directions = cone.unit_direction(apparent)
+        directions = placement.unit_direction(apparent)
         passed = cone.parts_balanced(self.beamformer, looks, beams, samples, directions,
                                      s.part_balance)
         if s.ghost_margin > 0:
