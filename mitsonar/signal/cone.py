@@ -137,13 +137,15 @@ def parts_balanced(beamformer: Beamformer, looks, beams: np.ndarray, samples: np
     ``samples[e]`` towards ``directions[e]`` (E, 3) with at least ``part_balance`` of the
     strongest part's beam (a waveform without parts passes): the narrow-band beams of the
     receiver's looks (:class:`~mitsonar.signal.receiver.EchoProcessor`'s, each part
-    matched-filtered and demodulated at its tone), a code's two parts in turn."""
+    matched-filtered and demodulated at its tone, relative to what the code's own echo leaves
+    there, ``part_gains``), a code's two parts in turn."""
     waves = looks.waves
     table = waves.looks[beams]
     part = np.zeros(table.shape)
     for look, rows, sets, carriers in looks.each(beams):  # a code's parts (two at most)
         part[rows, look] = np.abs(beamformer.aligned(looks.channels, sets, carriers,
-                                                     samples[rows], directions[rows]).sum(axis=1))
+                                                     samples[rows], directions[rows]).sum(axis=1)) \
+            / waves.part_gains[beams[rows], look]
     weakest = np.where(table >= 0, part, np.inf).min(axis=1)
     return ~waves.has_parts[beams] | (weakest >= part_balance * part.max(axis=1))
 

@@ -49,7 +49,8 @@ class DetectionSettings:
         max_candidates: envelope peaks examined, strongest first ("first"; the other settings of
             ``echoes`` examine every peak).
         part_balance: for waveforms with ``parts``, the weakest part's envelope over the
-            strongest's that a candidate needs (in (0, 1]; an echo carries both equally).
+            strongest's that a candidate needs, each relative to what the waveform's own echo
+            leaves in that part's filter (in (0, 1]; an echo carries both equally).
         arrival_step: grid step of the arrival-direction estimate within the main lobe [rad]
             (:mod:`mitsonar.signal.receiver`; 0: every point on the beam axis, as the paper).
         clutter_margin: factor by which every echo ("all", "cells") must exceed what the

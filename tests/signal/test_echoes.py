@@ -11,13 +11,12 @@ import numpy as np
 import pytest
 
 import mitsonar
-from helpers import (IDENTITY, TILT, TILT_DISTANCE, TILT_NORMAL, noise_beams, side_plate,
-                     tilted_footprint, tilted_plane)
+from helpers import (IDENTITY, TILT, TILT_DISTANCE, TILT_NORMAL, noise_beams, receiver,
+                     reflector_spectra, side_plate, tilted_footprint, tilted_plane)
 from mitsonar.frames import direction_from_fov_angles
 from mitsonar.scene.xml import material_xml, sphere_xml, write_scene
 from mitsonar.signal import multiecho
 from mitsonar.signal.multiecho import expected_false_alarms
-from mitsonar.sensors.sonar import PRE_ROLL
 from mitsonar.signal.band import Band, Recording
 from mitsonar.signal.detection import local_maxima
 from mitsonar.signal.ofdm import code_set
@@ -40,14 +39,8 @@ CYCLE_CODES = (1, 7, 13, 19, 23, 5, 11)
 
 def processor(settings: mitsonar.DetectionSettings, codes=()) -> EchoProcessor:
     """A receiver of ``CONFIG`` with ``settings``, on the band of a scan's recordings, or of an
-    OFDM cycle's when ``codes`` are given."""
-    cfg = CONFIG
-    waveforms = tuple(codes) + tuple(t for c in codes for t in c.parts)
-    duration = PRE_ROLL + len(codes) * codes[0].slot + 30e-3 if codes else cfg.record_duration
-    band = Band(cfg.pulse, cfg.transducer, cfg.sample_rate, -PRE_ROLL, duration,
-                cfg.transducer_response, floor=cfg.band_floor, baseband=cfg.baseband,
-                waveforms=waveforms)
-    return EchoProcessor(cfg.geometry, band, cfg.medium.speed_of_sound, settings, cfg.noise_rms)
+    OFDM cycle's when ``codes`` are given (:func:`receiver`)."""
+    return receiver(CONFIG, settings, codes)
 
 
 def beam_gains() -> np.ndarray:
@@ -59,15 +52,8 @@ def beam_gains() -> np.ndarray:
 
 def spectra(band: Band, gains, waveforms, offsets) -> np.ndarray:
     """(B, N_rx, nb) analytic spectra on the band: beam b's reflectors with ``gains[b]`` (P,),
-    driven by ``waveforms[b]`` fired at ``offsets[b]`` [s] (exact delays, TX origin to each
-    receive element)."""
-    g, c = CONFIG.geometry, CONFIG.medium.speed_of_sound
-    delay = (np.linalg.norm(REFLECTORS, axis=1)[:, None]
-             + np.linalg.norm(REFLECTORS[:, None] - g.rx_positions[None], axis=-1)) / c
-    delay = delay[None, ..., None] + np.reshape(offsets, (-1, 1, 1, 1)) - band.start_time
-    shift = np.exp(-2j * np.pi * band.frequencies * delay)
-    echo = np.stack([band.system_spectrum(w)[band.bins] for w in waveforms])
-    return np.einsum("bp,bpjf->bjf", gains, shift) * echo[:, None, :]
+    driven by ``waveforms[b]`` fired at ``offsets[b]`` [s] (:func:`reflector_spectra`)."""
+    return reflector_spectra(band, CONFIG, REFLECTORS, gains, waveforms, offsets)
 
 
 def noisy(band: Band, spectrum: np.ndarray, seed) -> Recording:
