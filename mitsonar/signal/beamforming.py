@@ -172,7 +172,8 @@ class Beamformer:
         """Unit vectors (D, 3) of the strongest arrivals at (fractional) ``samples`` (D,) within
         ``ghost_exclusion`` of the beam ``directions`` (D, 3): narrow-band delay-and-sum power
         on an ``arrival_step`` grid of field-of-view angles around each beam, the maximum refined
-        by the quadratic through its log-power and its 8 neighbours (:func:`peak_offsets`). Beam ``beams[e]`` sums the power of its looks e: channel
+        by the quadratic through its log-power and its 8 neighbours (:func:`peak_offsets`).
+        Beam ``beams[e]`` sums the power of its looks e: channel
         set ``sets[e]`` of ``channels`` (S, N_rx, N) demodulated at ``carriers[e]`` [Hz] (E,),
         in the order given. One sparse product for all."""
         s = self.settings

@@ -8,7 +8,8 @@ also arrives from inside beam b's main lobe (a reflector lit by another beam's t
 lobe, beside beam b's axis), beam b's side-lobe check cannot reject it: it does come from
 there, only at another code's firing time, and placed with beam b's it lands a slot spacing of
 the cycle or more off in range (measured: 1.58 m in a 35-beam TCT40 frame facing a wall,
-tests/recon/test_repeated_offbeam.py; tests/signal/test_crosstalk.py). The code tells it, where the transducers let the codes differ.
+tests/recon/test_repeated_offbeam.py; tests/signal/test_crosstalk.py). The code tells it, where
+the transducers let the codes differ.
 
 * Leaks (:func:`leaks`): what each other code k' leaves at sample t of code k's envelope steered
   to a direction: the envelope of k' steered there, read where its own filter peaks (t - tau),

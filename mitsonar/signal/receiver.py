@@ -34,9 +34,9 @@ Order and choices:
   wrong depth). Waveforms made of parts (OFDM codes: two tones, :class:`~mitsonar.signal.ofdm.Code`)
   are also matched-filtered part by part: a candidate is accepted only if every part is there
   with at least ``part_balance`` of the strongest part's envelope, each relative to what the
-  code's own echo leaves in that part's filter (:meth:`EchoProcessor.part_gain`). Another code that shares one
-  tone leaks into one part only (the paper's codes correlate at 1/2 through a shared half), so
-  this rejects it where a threshold on the whole-code envelope could not.
+  code's own echo leaves in that part's filter (:meth:`EchoProcessor.part_gain`). Another code
+  that shares one tone leaks into one part only (the paper's codes correlate at 1/2 through a
+  shared half), so this rejects it where a threshold on the whole-code envelope could not.
   No accepted candidate gives "no detection": NaN depth and ``detected = False``.
 * Arrival direction (``arrival_step`` > 0; beyond the paper, which places every point on the beam
   axis): the transmit beam lights everything within its main lobe, and at 3 m a reflector 3 deg
