@@ -121,3 +121,35 @@ def side_plate(scene_file):
     return scene_file("plate", material_xml("m", preset="metal", scattering=0.0),
                       spanned_rectangle_xml("m", centre, across, np.cross(normal, across),
                                             (SIDE_PLATE_HALF, SIDE_PLATE_HALF)))
+
+
+# ---- Analytic echoes of point reflectors (tests/signal/test_echoes.py, test_crosstalk.py) ----
+def reflector_spectra(band, config, reflectors, gains, waveforms, offsets) -> np.ndarray:
+    """(B, N_rx, nb) analytic spectra on ``band`` of ``config``'s receive array: beam b's
+    ``reflectors`` (P, 3) [m] with path gains ``gains[b]`` (P,) [Pa], driven by
+    ``waveforms[b]`` fired at ``offsets[b]`` [s] (exact delays, transmit origin to each receive
+    element)."""
+    g, c = config.geometry, config.medium.speed_of_sound
+    delay = (np.linalg.norm(reflectors, axis=1)[:, None]
+             + np.linalg.norm(reflectors[:, None] - g.rx_positions[None], axis=-1)) / c
+    delay = delay[None, ..., None] + np.reshape(offsets, (-1, 1, 1, 1)) - band.start_time
+    shift = np.exp(-2j * np.pi * band.frequencies * delay)
+    echo = np.stack([band.system_spectrum(w)[band.bins] for w in waveforms])
+    return np.einsum("bp,bpjf->bjf", gains, shift) * echo[:, None, :]
+
+
+def receiver(config, settings, codes=()):
+    """An :class:`~mitsonar.signal.receiver.EchoProcessor` of ``config`` with detection
+    ``settings``, on the band of a scan's recordings, or of an OFDM cycle's when ``codes`` are
+    given (their parts' matched filters too)."""
+    from mitsonar.sensors.sonar import PRE_ROLL
+    from mitsonar.signal.band import Band
+    from mitsonar.signal.receiver import EchoProcessor
+
+    waveforms = tuple(codes) + tuple(t for c in codes for t in c.parts)
+    duration = PRE_ROLL + len(codes) * codes[0].slot + 30e-3 if codes else config.record_duration
+    band = Band(config.pulse, config.transducer, config.sample_rate, -PRE_ROLL, duration,
+                config.transducer_response, floor=config.band_floor, baseband=config.baseband,
+                waveforms=waveforms)
+    return EchoProcessor(config.geometry, band, config.medium.speed_of_sound, settings,
+                         config.noise_rms)

@@ -176,7 +176,8 @@ class Beamformer:
         """Unit vectors (D, 3) of the strongest arrivals at (fractional) ``samples`` (D,) within
         ``ghost_exclusion`` of the beam ``directions`` (D, 3): narrow-band delay-and-sum power
         on an ``arrival_step`` grid of field-of-view angles around each beam, the maximum refined
-        by a parabola along each axis. Beam ``beams[e]`` sums the power of its looks e: channel
+        by the quadratic through its log-power and its 8 neighbours (:func:`peak_offsets`).
+        Beam ``beams[e]`` sums the power of its looks e: channel
         set ``sets[e]`` of ``channels`` (S, N_rx, N) demodulated at ``carriers[e]`` [Hz] (E,),
         in the order given. One sparse product for all."""
         s = self.settings
@@ -204,10 +205,17 @@ class Beamformer:
         power = np.pad(power.reshape(-1, side, side), ((0, 0), (1, 1), (1, 1)))
         d = np.arange(len(directions))
         peak = power[d, i + 1, j + 1]
-        along_h = np.where((0 < i) & (i < side - 1),
-                           vertex(power[d, i, j + 1], peak, power[d, i + 2, j + 1]), 0.0)
-        along_v = np.where((0 < j) & (j < side - 1),
-                           vertex(power[d, i + 1, j], peak, power[d, i + 1, j + 2]), 0.0)
+        # The vertex of the quadratic through the log-power around the maximum (the lobe's axes
+        # need not be the grid's: parabolas along each axis err by up to 0.6 mrad); on the
+        # grid's edge, the parabola along the other axis.
+        rows = i[:, None, None] + np.arange(3)[None, None, :]
+        cols = j[:, None, None] + np.arange(3)[None, :, None]
+        joint = peak_offsets(np.log(np.maximum(power[d[:, None, None], rows, cols], 1e-300)))
+        inner_h, inner_v = (0 < i) & (i < side - 1), (0 < j) & (j < side - 1)
+        along_h = np.where(inner_h & inner_v, joint[:, 0], np.where(
+            inner_h, vertex(power[d, i, j + 1], peak, power[d, i + 2, j + 1]), 0.0))
+        along_v = np.where(inner_h & inner_v, joint[:, 1], np.where(
+            inner_v, vertex(power[d, i + 1, j], peak, power[d, i + 1, j + 2]), 0.0))
         return direction_from_fov_angles(h0 + offsets[i] + s.arrival_step * along_h,
                                          v0 + offsets[j] + s.arrival_step * along_v)
 
@@ -236,3 +244,22 @@ class Beamformer:
         np.add.at(beam, beams, np.abs(x.sum(axis=1)) ** 2)
         np.add.at(total, beams, x.shape[1] * np.sum(np.abs(x) ** 2, axis=1))
         return np.divide(beam, total, out=np.full(len(total), np.nan), where=total > 0)
+
+
+def peak_offsets(near: np.ndarray) -> np.ndarray:
+    """(P, 2) offsets [grid steps] along u_x and u_y of the main-lobe peaks of log-powers ``near``
+    (P, 3, 3) [p, y, x] around a grid direction: the vertex of the quadratic through the 9
+    values (exact for a Gaussian lobe, whose axes need not be the grid's), or, where that has no
+    maximum within a step, of the parabolas along each axis."""
+    gx = 0.5 * (near[:, 1, 2] - near[:, 1, 0])
+    gy = 0.5 * (near[:, 2, 1] - near[:, 0, 1])
+    hxx = near[:, 1, 2] - 2 * near[:, 1, 1] + near[:, 1, 0]
+    hyy = near[:, 2, 1] - 2 * near[:, 1, 1] + near[:, 0, 1]
+    hxy = 0.25 * (near[:, 2, 2] - near[:, 2, 0] - near[:, 0, 2] + near[:, 0, 0])
+    det = hxx * hyy - hxy**2
+    safe = np.where(det > 0, det, 1.0)
+    joint = np.stack([(hxy * gy - hyy * gx) / safe, (hxy * gx - hxx * gy) / safe], axis=-1)
+    axes = np.stack([vertex(near[:, 1, 0], near[:, 1, 1], near[:, 1, 2]),
+                     vertex(near[:, 0, 1], near[:, 1, 1], near[:, 2, 1])], axis=-1)
+    maximum = (det > 0) & (hxx < 0) & np.all(np.abs(joint) <= 1.0, axis=-1)
+    return np.where(maximum[:, None], joint, axes)

@@ -34,11 +34,11 @@ filter:
   ghost grid outside its receive main lobe ``ghost_margin`` stronger at that instant: a return
   from elsewhere leaking through the receive side lobes); the direction's trust (``coherence``
   >= ``min_coherence``).
-* Placement (:func:`place`): the direction refined between grid directions by the vertex of the
-  quadratic through the log of the image at the peak and its 8 neighbours
-  (:func:`peak_offsets`), corrected for the near field of the receive aperture
-  (:func:`near_field_shift`), and the bistatic depth (7) solved from the receive origin o_R along
-  it, as single-ping imaging places its points.
+* Placement: the direction refined between grid directions by the vertex of the quadratic
+  through the log of the image at the peak and its 8 neighbours (:func:`peak_offsets`), then
+  placed as every echo is (:func:`mitsonar.signal.placement.place`: near field, curvature,
+  bistatic depth (7) from the receive origin o_R along it), as single-ping imaging places its
+  points.
 * False alarms (:meth:`ConeImager.expected_false_alarms`): receiver noise alone gives the image
   of a complex Gaussian field, stationary in time and direction cosines; the design number of
   points per beam is the expected Euler characteristic of its excursion set above
@@ -56,10 +56,9 @@ import numpy as np
 
 from mitsonar.physics.array import ArrayGeometry
 from mitsonar.signal.band import Band
-from mitsonar.signal.beamforming import Beamformer, dot
+from mitsonar.signal.beamforming import Beamformer, peak_offsets
 from mitsonar.signal import multiecho
-from mitsonar.signal.detection import (DetectionSettings, bistatic_depth, local_maxima,
-                                       vertex)
+from mitsonar.signal.detection import DetectionSettings, local_maxima
 
 #: Image rows (beams x directions) transformed together (bounds the complex temporaries).
 ROW_BATCH = 256
@@ -138,13 +137,15 @@ def parts_balanced(beamformer: Beamformer, looks, beams: np.ndarray, samples: np
     ``samples[e]`` towards ``directions[e]`` (E, 3) with at least ``part_balance`` of the
     strongest part's beam (a waveform without parts passes): the narrow-band beams of the
     receiver's looks (:class:`~mitsonar.signal.receiver.EchoProcessor`'s, each part
-    matched-filtered and demodulated at its tone), a code's two parts in turn."""
+    matched-filtered and demodulated at its tone, relative to what the code's own echo leaves
+    there, ``part_gains``), a code's two parts in turn."""
     waves = looks.waves
     table = waves.looks[beams]
     part = np.zeros(table.shape)
     for look, rows, sets, carriers in looks.each(beams):  # a code's parts (two at most)
         part[rows, look] = np.abs(beamformer.aligned(looks.channels, sets, carriers,
-                                                     samples[rows], directions[rows]).sum(axis=1))
+                                                     samples[rows], directions[rows]).sum(axis=1)) \
+            / waves.part_gains[beams[rows], look]
     weakest = np.where(table >= 0, part, np.inf).min(axis=1)
     return ~waves.has_parts[beams] | (weakest >= part_balance * part.max(axis=1))
 
@@ -170,63 +171,6 @@ def apparent_directions(imager: ConeImager, image: np.ndarray, axes: np.ndarray,
     near = image[beams[:, None, None], imager.neighbours[d], samples[:, None, None]]
     offset = peak_offsets(np.log(np.maximum(near.astype(float), 1e-30)))
     return axes[beams, :2] + imager.offsets[d] + imager.spacing * offset
-
-
-def peak_offsets(near: np.ndarray) -> np.ndarray:
-    """(P, 2) offsets [grid steps] along u_x and u_y of the main-lobe peaks of log-powers ``near``
-    (P, 3, 3) [p, y, x] around a grid direction: the vertex of the quadratic through the 9
-    values (exact for a Gaussian lobe, whose axes need not be the grid's), or, where that has no
-    maximum within a step, of the parabolas along each axis."""
-    gx = 0.5 * (near[:, 1, 2] - near[:, 1, 0])
-    gy = 0.5 * (near[:, 2, 1] - near[:, 0, 1])
-    hxx = near[:, 1, 2] - 2 * near[:, 1, 1] + near[:, 1, 0]
-    hyy = near[:, 2, 1] - 2 * near[:, 1, 1] + near[:, 0, 1]
-    hxy = 0.25 * (near[:, 2, 2] - near[:, 2, 0] - near[:, 0, 2] + near[:, 0, 0])
-    det = hxx * hyy - hxy**2
-    safe = np.where(det > 0, det, 1.0)
-    joint = np.stack([(hxy * gy - hyy * gx) / safe, (hxy * gx - hxx * gy) / safe], axis=-1)
-    axes = np.stack([vertex(near[:, 1, 0], near[:, 1, 1], near[:, 1, 2]),
-                     vertex(near[:, 0, 1], near[:, 1, 1], near[:, 2, 1])], axis=-1)
-    maximum = (det > 0) & (hxx < 0) & np.all(np.abs(joint) <= 1.0, axis=-1)
-    return np.where(maximum[:, None], joint, axes)
-
-
-def near_field_shift(geometry: ArrayGeometry, direction: np.ndarray,
-                     distance: np.ndarray) -> np.ndarray:
-    """(P, 2) what to add to the (u_x, u_y) of the peak of the plane-wave beams (5) to get the
-    direction of a source at ``distance`` (P,) [m] from the receive origin in ``direction``
-    (P, 3). Within the array's far-field distance (2 x (10 cm)^2 / 8.5 mm = 2.3 m) element j
-    hears the source q_j = (|p_j|^2 - (p_j . u)^2) / (2 r) later than a plane wave from u; the
-    beam that best aligns these delays (least squares) peaks C^-1 cov(p, q) before u (C: the
-    covariance of the positions p_j in the array plane)."""
-    p = geometry.rx_positions[:, :2] - geometry.rx_origin[:2]
-    along = direction[:, :2] @ p.T  # (P, N_rx)
-    late = (np.sum(p**2, axis=1) - along**2) / (2 * distance[:, None])
-    centred = p - p.mean(axis=0)
-    covariance = (late - late.mean(axis=1, keepdims=True)) @ centred / len(p)  # (P, 2)
-    return np.linalg.solve(np.cov(p.T, bias=True), covariance.T).T
-
-
-def place(geometry: ArrayGeometry, transmit_centre, path_length: np.ndarray,
-          apparent: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(points (P, 3) [m], arrival directions (P, 3)) of echoes of ``path_length`` (P,) [m]
-    (transmit centre (3,) -> reflector -> receive origin) whose plane-wave beams peak at
-    direction cosines ``apparent`` (P, 2): the near field corrected (:func:`near_field_shift`)
-    and the bistatic depth (7) solved from the receive origin o_R, point = o_R + r u_a."""
-    baseline = np.asarray(transmit_centre, dtype=float) - geometry.rx_origin
-    length = float(np.linalg.norm(baseline))
-    unit = baseline / max(length, 1e-300)
-    arrival = unit_direction(apparent)
-    for _ in range(2):  # (7) and the near-field correction depend on each other, weakly
-        receive_range = bistatic_depth(path_length, length, dot(arrival, unit))
-        arrival = unit_direction(apparent + near_field_shift(geometry, arrival, receive_range))
-    receive_range = bistatic_depth(path_length, length, dot(arrival, unit))
-    return geometry.rx_origin + receive_range[:, None] * arrival, arrival
-
-
-def unit_direction(u_xy: np.ndarray) -> np.ndarray:
-    """Unit vectors (P, 3) towards +z with direction cosines ``u_xy`` (P, 2)."""
-    return np.concatenate([u_xy, np.sqrt(1.0 - np.sum(u_xy**2, axis=1, keepdims=True))], axis=1)
 
 
 def expected_blobs(detection_snr: float, outline: np.ndarray, duration: float, band: Band,

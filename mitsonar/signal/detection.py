@@ -49,7 +49,8 @@ class DetectionSettings:
         max_candidates: envelope peaks examined, strongest first ("first"; the other settings of
             ``echoes`` examine every peak).
         part_balance: for waveforms with ``parts``, the weakest part's envelope over the
-            strongest's that a candidate needs (in (0, 1]; an echo carries both equally).
+            strongest's that a candidate needs, each relative to what the waveform's own echo
+            leaves in that part's filter (in (0, 1]; an echo carries both equally).
         arrival_step: grid step of the arrival-direction estimate within the main lobe [rad]
             (:mod:`mitsonar.signal.receiver`; 0: every point on the beam axis, as the paper).
         clutter_margin: factor by which every echo ("all", "cells") must exceed what the
@@ -246,25 +247,6 @@ def bistatic_depth(path_length, baseline: float, cos_beam_baseline) -> np.ndarra
     """Equation (7): depth [m] from path length l [m], baseline b [m] and cos(theta_b)."""
     l = np.asarray(path_length, dtype=float)
     return (l**2 - baseline**2) / (2.0 * (l - baseline * np.asarray(cos_beam_baseline)))
-
-
-def bistatic_point(path_length, direction, centre, tx_origin, rx_origin) -> np.ndarray:
-    """Points (E, 3) [m] c + r u along unit directions u (E, 3) measured from ``centre`` c (3,)
-    (the receive array's phase centre) whose path from ``tx_origin`` (3,) to the point and back
-    to ``rx_origin`` (3,) is ``path_length`` l (E,) [m]: (7) with the direction's own origin.
-    With A = c - tx_origin, B = c - rx_origin, the distances to the two origins are
-    alpha + beta r and l - alpha - beta r, alpha = (l + (|A|^2 - |B|^2) / l) / 2,
-    beta = (A - B).u / l, and r is the positive root of
-    (1 - beta^2) r^2 + 2 (A.u - alpha beta) r + |A|^2 - alpha^2 = 0."""
-    l = np.asarray(path_length, dtype=float)
-    u = np.asarray(direction, dtype=float)
-    a, b = np.subtract(centre, tx_origin), np.subtract(centre, rx_origin)
-    alpha = (l + (a @ a - b @ b) / l) / 2
-    beta = u @ (a - b) / l
-    half_b = u @ a - alpha * beta
-    quadratic = 1 - beta**2
-    r = (np.sqrt(half_b**2 - quadratic * (a @ a - alpha**2)) - half_b) / quadratic
-    return centre + r[:, None] * u
 
 
 def vertex(y0, y1, y2) -> np.ndarray:

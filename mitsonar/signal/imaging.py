@@ -68,9 +68,10 @@ Points. A cell (direction d, sample k) inside the field of view is a point when
 
 Each point is placed as the receiver places a detection with its arrival direction: the
 direction refined between grid directions by a parabola through the image power along u_x and
-u_y, the time of arrival by a parabola through the envelope, and the bistatic depth (7) solved
-from the receive side (range r from the receive origin o_R along the arrival direction u_a, with
-the baseline from o_R to the transmit centre): point = o_R + r u_a.
+u_y, the time of arrival by a parabola through the envelope, and the point placed by
+:func:`mitsonar.signal.placement.place` (near field and curvature corrected, the bistatic depth
+(7) solved from the receive origin o_R along the direction, with the baseline from o_R to the
+transmit centre, a point source): point = o_R + r u_a.
 
 False alarms. On noise alone the image is the envelope of a complex Gaussian field, stationary
 in time and in direction cosines; a cell exceeds the threshold with probability
@@ -94,7 +95,9 @@ from mitsonar.frames import fov_angles
 from mitsonar.physics.array import ArrayGeometry
 from mitsonar.physics.beampattern import array_factor
 from mitsonar.signal.band import Band, Recording
-from mitsonar.signal.cone import expected_blobs, peak_offsets, place
+from mitsonar.signal.beamforming import peak_offsets
+from mitsonar.signal.cone import expected_blobs
+from mitsonar.signal.placement import place
 from mitsonar.signal.detection import DetectionSettings, vertex
 from mitsonar.signal.receiver import EchoProcessor
 from mitsonar.validation import check_positive, check_range
@@ -354,7 +357,7 @@ class ReceiveImager:
         apparent = self.directions[d, :2] + self.spacing * self._peak_offsets(image, d, k)
         sample = k + vertex(image[d, k - 1], value, image[d, k + 1])
         length = self.c * (start_time + sample / fs)
-        points, arrival = place(self.geometry, self._transmit_centre, length, apparent)
+        points, arrival = place(self.geometry, length, apparent, self._transmit_centre)
         snr = value / self.noise_level if self.noise_level > 0 else np.full(len(value), np.inf)
         return ImagePoints(points, arrival, length, value, snr, coherence,
                            np.stack([d, k], axis=1), passed)

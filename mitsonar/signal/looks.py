@@ -86,6 +86,10 @@ class Waveforms:
         looks: (B, P) each beam's looks (-1: none).
         has_parts: (B,) whether a beam's looks are parts of its waveform (with envelopes of their
             own, for the part balance).
+        part_gains: (B, P) the envelope peak that an echo of the beam's own waveform of unit
+            amplitude leaves through each look's matched filter (1 without parts;
+            :meth:`EchoProcessor.part_gain <mitsonar.signal.receiver.EchoProcessor.part_gain>`):
+            the part balance compares the parts' envelopes divided by these.
     """
 
     def __init__(self, processor, waveforms, count: int):
@@ -108,6 +112,10 @@ class Waveforms:
             table[k, : len(look)] = [tones.index(t) for t in look]
         self.looks = table[self.kind]
         self.has_parts = np.array([len(p) > 0 for p in parts])[self.kind]
+        gains = np.ones(table.shape)
+        for k, part in enumerate(parts):  # a code's parts (two at most)
+            gains[k, : len(part)] = [processor.part_gain(kinds[k], t) for t in part]
+        self.part_gains = gains[self.kind]
         self.look_filters = np.stack([processor.matched_filter(t)[0] for t in tones])
         self.carriers = np.array([float(t.frequency) for t in tones])
 

@@ -44,6 +44,7 @@ import numpy as np
 from mitsonar.physics.array import ArrayGeometry
 from mitsonar.physics.beampattern import in_fov
 from mitsonar.signal import sidelobe
+from mitsonar.signal.crosstalk import leaks, steered_codes
 from mitsonar.signal.detection import DetectionSettings
 
 
@@ -149,23 +150,10 @@ def cross_talk(processor, looks, crosstalk, beams, samples, centre, n) -> np.nda
     ``beams`` (E,) steered to ``centre`` (E, 3) [Pa]: every other beam's code decoded on the
     envelope steered there (where it hears an echo from that direction at full gain), times
     |X| (``crosstalk`` (K, K, 2 S + 1), :class:`~mitsonar.signal.multiecho.Clutter`) at every
-    lag -S..S; ``n`` samples per envelope."""
-    waves = looks.waves
-    kinds = len(waves.kinds)
-    span = crosstalk.shape[-1] // 2
-    lags = np.arange(-span, span + 1)
-    steered = processor.beamformer.beamformed(looks.spectra[0], centre)  # (E, nb), one recording
-    envelopes = processor.band.envelopes(np.repeat(steered, kinds, axis=0),
-                                         np.tile(waves.filters, (len(beams), 1)), n)
-    envelopes = envelopes.reshape(len(beams), kinds, n)
-    at = samples[:, None] - lags  # (E, L) the other code's echo, where its own filter peaks
-    inside = ((at >= 0) & (at < n))[:, None, :]
-    every = np.arange(kinds)
-    source = np.where(inside, envelopes[np.arange(len(beams))[:, None, None], every[None, :, None],
-                                        np.clip(at, 0, n - 1)[:, None, :]], 0.0)  # (E, K, L)
-    leak = source * crosstalk[waves.kind[beams]][:, :, lags + span]  # |X| (E, K, L)
-    others = every[None, :] != waves.kind[beams][:, None]  # every code but its own
-    return np.where(others[:, :, None], leak, 0.0).max(axis=(1, 2), initial=0.0)
+    lag -S..S (:func:`~mitsonar.signal.crosstalk.leaks`); ``n`` samples per envelope."""
+    codes = steered_codes(processor, looks, centre, n)
+    return leaks(codes, crosstalk, looks.waves.kind[beams], np.arange(len(beams)),
+                 samples).max(axis=1, initial=0.0)
 
 
 def trusted(coherence, arrival, geometry: ArrayGeometry,

@@ -33,34 +33,34 @@ Order and choices:
   along the beam (a side-lobe echo, e.g. the specular return of a tilted wall, which would give a
   wrong depth). Waveforms made of parts (OFDM codes: two tones, :class:`~mitsonar.signal.ofdm.Code`)
   are also matched-filtered part by part: a candidate is accepted only if every part is there
-  with at least ``part_balance`` of the strongest part's envelope. Another code that shares one
-  tone leaks into one part only (the paper's codes correlate at 1/2 through a shared half), so
-  this rejects it where a threshold on the whole-code envelope could not.
+  with at least ``part_balance`` of the strongest part's envelope, each relative to what the
+  code's own echo leaves in that part's filter (:meth:`EchoProcessor.part_gain`). Another code
+  that shares one tone leaks into one part only (the paper's codes correlate at 1/2 through a
+  shared half), so this rejects it where a threshold on the whole-code envelope could not.
   No accepted candidate gives "no detection": NaN depth and ``detected = False``.
 * Arrival direction (``arrival_step`` > 0; beyond the paper, which places every point on the beam
   axis): the transmit beam lights everything within its main lobe, and at 3 m a reflector 3 deg
   off the axis is 16 cm from it. Where along the lobe the echo at the detected instant comes
   from is read from the receive array: the narrow-band delay-and-sum power at that instant over
   directions within ``ghost_exclusion`` of the beam (``arrival_step`` apart, refined by a
-  parabola through the strongest and its neighbours along each axis), summed over the looks.
-  Its maximum is the arrival direction u_a, seen from the receive origin o_R. A surface seen
-  obliquely (a floor, a wall at 50 deg) returns first from the near edge of the lobe, not from
-  its axis; that is where u_a points.
+  quadratic through the log-power of the strongest and its 8 neighbours), summed over the looks.
+  Its maximum is the direction of the plane wave that best explains the channels; corrected for
+  the receive array's near field it is the arrival direction u_a seen from the receive origin
+  o_R. A surface seen obliquely (a floor, a wall at 50 deg) returns first from the near edge of
+  the lobe, not from its axis; that is where u_a points.
 * Depth by the bistatic (7): d = (l^2 - b^2) / (2 (l - b cos theta_b)), with theta_b the angle
   between the beam and the baseline vector (TX -> RX origin); point = d * u in the sensor frame.
   With an arrival direction, (7) is solved from the receive side instead (range r from o_R along
-  u_a, theta_b measured from the RX -> TX vector): point = o_R + r u_a, and the depth is the
-  point's distance from the transmit origin.
+  u_a, theta_b measured from the RX -> TX vector, the arrays' curvature delays taken off the
+  path): point = o_R + r u_a, and the depth is the point's distance from the transmit origin.
+  Every echo of every setting (first, all, cells, image, off-beam) is placed so, by
+  :func:`mitsonar.signal.placement.place`.
 * Every echo (``echoes`` = "all" or "cells", :mod:`mitsonar.signal.multiecho`): instead of the
   strongest candidate, every echo over the local clutter and every independent range cell
   across extended echoes, each through the same part balance and side-lobe check, each with
   its own arrival direction, kept where that direction is trustworthy (``min_coherence``).
-  These are placed from the receive array's phase centre c (its element centroid, where the
-  delay-and-sum measures the arrival): point = c + r u_a with r from (7) for the path from the
-  transmit origin to the point and back to o_R. (The single-detection path above places from
-  o_R, as it always has; at 1-4 m that puts its points about 8 mm aside, along c - o_R.) The
-  strongest echo of each beam is its :class:`~mitsonar.signal.detection.Detections` entry; all
-  are in :class:`~mitsonar.signal.detection.Echoes`.
+  The strongest echo of each beam is its :class:`~mitsonar.signal.detection.Detections` entry;
+  all are in :class:`~mitsonar.signal.detection.Echoes`.
 * Receive images over each beam's lit cone (``echoes`` = "image", :mod:`mitsonar.signal.cone`):
   echoes and range cells chosen on where each beam's cone image peaks, checked and placed at
   that direction; reported as "cells" are.
@@ -83,7 +83,7 @@ import numpy as np
 from mitsonar.physics.array import ArrayGeometry
 from mitsonar.signal.band import Band, Recording
 from mitsonar.signal.beamforming import Beamformer, dot
-from mitsonar.signal import cone, multiecho, offbeam, placement, sidelobe
+from mitsonar.signal import cone, crosstalk, multiecho, offbeam, placement, sidelobe
 from mitsonar.signal.detection import (Detection, Detections, DetectionSettings, candidates,
                                        local_maxima)
 from mitsonar.signal.looks import Looks, Waveforms
@@ -117,6 +117,7 @@ class EchoProcessor:
         self.noise_rms = float(noise_rms)
         self.beamformer = Beamformer(geometry, band, speed_of_sound, settings)
         self._filters = {}
+        self._part_gains = {}
         self._profiles = {}
         self._crosstalks = {}
         self._crosstalk_tables = {}  # the kinds of a recording's beams -> their table
@@ -131,6 +132,23 @@ class EchoProcessor:
             energy = float(np.sum(np.abs(w) ** 2)) / self.band.n_fft  # Parseval
             self._filters[key] = (np.conj(w[self.band.bins]) / energy, energy)
         return self._filters[key]
+
+    def part_gain(self, waveform, part) -> float:
+        """The envelope peak [Pa] that an echo of ``waveform`` of unit amplitude leaves through
+        the matched filter of its ``part`` (one of its :attr:`parts
+        <mitsonar.signal.ofdm.Code.parts>`), computed once. Near 1 behind broadband transducers
+        (the two tones of a code are orthogonal over their halves); behind the TCT40, whose
+        ringing carries a code's 40 kHz half into its other half's filter, up to 3.4 for a tone
+        the transducers attenuate (e.g. 36 kHz of the code (36, 40) kHz): its parts must be
+        compared relative to these, or the part balance rejects the code's own echoes (measured
+        on a wall facing the broadside beam: its mirror echo, the frame's strongest, 0.295 of
+        balance against 0.3 needed, and a cross-talk echo 1.1 m behind the wall taken instead)."""
+        key = (waveform, part)
+        if key not in self._part_gains:
+            band = self.band
+            echo = band.system_spectrum(waveform)[band.bins] * self.matched_filter(part)[0]
+            self._part_gains[key] = float(np.abs(band.to_analytic(echo)).max())
+        return self._part_gains[key]
 
     def range_profile(self, waveform=None) -> tuple[np.ndarray, float]:
         """:func:`~mitsonar.signal.multiecho.range_profile` of a waveform on the band (|R| by lag
@@ -225,7 +243,8 @@ class EchoProcessor:
         # Part envelopes (B, P, N) for the part balance; a beam without parts passes (inf >= 0).
         weakest = np.full(waves.looks.shape + (n,), np.inf)
         strongest = np.zeros(weakest.shape)
-        weakest[beams, look] = strongest[beams, look] = rows[len(u):]
+        weakest[beams, look] = strongest[beams, look] = \
+            rows[len(u):] / waves.part_gains[beams, look][:, None]
         s = self.settings
         balanced = weakest.min(axis=1) >= s.part_balance * strongest.max(axis=1)
         image = None
@@ -291,8 +310,10 @@ class EchoProcessor:
         if s.echoes == "image" and (image is None or looks is None):
             raise ValueError("DetectionSettings.echoes = 'image' needs the channels")
         if s.echoes == "first":
+            owned = self._owner(u, waves, transmit, looks, envelopes) \
+                if shared and looks is not None else None
             beams, samples, strongest = sidelobe.strongest_echoes(
-                self.beamformer, looks, envelopes, window & loud & balanced, u)
+                self.beamformer, looks, envelopes, window & loud & balanced, u, owned)
             cells = (np.zeros(0, np.int64),) * 2
         else:
             clutter, resolution = self._clutter(u, waves, transmit if shared else None)
@@ -310,6 +331,23 @@ class EchoProcessor:
                                     envelopes, crosstalk)
         return placement.report(self, envelopes, threshold, window, start_time, transmit, u,
                                 waves, looks, beams, samples, cells, apparent, moved)
+
+    def _owner(self, u, waves, transmit, looks, envelopes):
+        """The test (beams, samples) (E,) -> (E,) whether candidates on B beams' envelopes
+        (B, N) [Pa] of one recording (directions ``u`` (B, 3), firing times ``transmit`` (B,)
+        [s]) are their own codes' echoes rather than other codes' of the cycle
+        (:func:`~mitsonar.signal.crosstalk.own_code`)."""
+        table = self._crosstalk(u, waves, transmit)[0]
+        rho = crosstalk.separation(table)
+
+        def owned(beams, samples):
+            distinct, rows = np.unique(beams, return_inverse=True)
+            codes = crosstalk.steered_codes(self, looks, u[distinct], envelopes.shape[1])
+            kind = waves.kind[beams]
+            leaked = crosstalk.leaks(codes, table, kind, rows, samples)
+            return crosstalk.own_code(envelopes[beams, samples], leaked, rho, kind,
+                                      self.settings.clutter_margin)
+        return owned
 
     def _every_echo(self, envelopes, loud, window, balanced, u, looks, clutter, resolution):
         """(beams, samples) of every echo of B beams and (beams, samples) of their range cells
@@ -341,7 +379,7 @@ class EchoProcessor:
                                                        resolution, clutter, s.clutter_margin)
         beams, samples = (np.concatenate(x) for x in zip(found, cells))
         apparent = cone.apparent_directions(self._cone, image, u, beams, samples, best)
-        directions = cone.unit_direction(apparent)
+        directions = placement.unit_direction(apparent)
         passed = cone.parts_balanced(self.beamformer, looks, beams, samples, directions,
                                      s.part_balance)
         if s.ghost_margin > 0:

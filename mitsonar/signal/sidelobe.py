@@ -8,7 +8,8 @@ which would give a wrong depth; :meth:`Beamformer.off_beam
 a code's parts, or its waveform) are checked one after another: a candidate rejected in one is
 not checked in the next. "first" (:func:`strongest_echoes`) checks each beam's strongest
 candidate, then the other candidates of the beams whose strongest was rejected: a sparse
-product per carrier for each.
+product per carrier for each; in a recording shared by several codes, a candidate must also be
+its own code's echo rather than another code's (:mod:`mitsonar.signal.crosstalk`).
 """
 
 from __future__ import annotations
@@ -42,22 +43,33 @@ def along_beam(beamformer: Beamformer, looks: Looks | None, u, beams, samples):
     return beams[passed], samples[passed]
 
 
-def strongest_echoes(beamformer: Beamformer, looks: Looks | None, envelopes, accepted, u):
+def strongest_echoes(beamformer: Beamformer, looks: Looks | None, envelopes, accepted, u,
+                     owned=None):
     """Each beam's strongest candidate that arrives along it (``echoes`` = "first"), from the
     envelopes (B, N) [Pa] where ``accepted`` (B, N) (module docstring): (beams, samples) by
-    beam, and (beams, samples) of every beam's strongest candidate before the check."""
+    beam, and (beams, samples) of every beam's strongest candidate before the check. ``owned``:
+    in a recording shared by several codes, a function of (beams, samples) (E,) giving (E,)
+    whether each is its own code's echo (:func:`~mitsonar.signal.crosstalk.own_code`), asked
+    of the candidates that pass the side-lobe check."""
     s = beamformer.settings
     beams, samples, ranks = candidates(envelopes, accepted, s.max_candidates)
     strongest = ranks == 0
     first = beams[strongest], samples[strongest]
-    if looks is not None and s.ghost_margin > 0:
-        # Each beam's strongest candidate first; the others where it arrives off the beam.
+    side_lobes = looks is not None and s.ghost_margin > 0
+    if side_lobes or owned is not None:
+        def check(b, k):
+            ok = passes(beamformer, looks, u, b, k) if side_lobes else np.ones(len(b), bool)
+            if owned is not None and ok.any():
+                ok[ok] = owned(b[ok], k[ok])
+            return ok
+
+        # Each beam's strongest candidate first; the others where it fails.
         passed = strongest.copy()
-        passed[strongest] = passes(beamformer, looks, u, *first)
+        passed[strongest] = check(*first)
         done = np.zeros(len(envelopes), bool)
         done[beams[passed]] = True
         retry = (ranks > 0) & ~done[beams]
-        passed[retry] = passes(beamformer, looks, u, beams[retry], samples[retry])
+        passed[retry] = check(beams[retry], samples[retry])
         beams, samples = beams[passed], samples[passed]
     found, index = np.unique(beams, return_index=True)  # each beam's strongest left
     return found, samples[index], first

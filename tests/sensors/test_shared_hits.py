@@ -31,13 +31,15 @@ def two_targets(scene_file, transducer):
 
 
 @pytest.mark.parametrize("kind, step, rays, found", [("broadband", 2.0, 96, 2),
-                                                     ("narrow-band", 1.0, 160, 1)])
+                                                     ("narrow-band", 1.0, 160, 2)])
 def test_shared_hits_frame_matches_per_beam_tracing(scene_file, kind, step, rays, found):
     """The shared path against every beam traced alone over a 60 deg cone (the union's extent,
     so both carry the same transmit side lobes; rays^2 per beam): the same decision on every
     beam, depths within 1 mm (measured 0.6 mm broadband; narrow-band 0.4 mm, its long echoes
     of the 10 cm sphere need 1 deg rays: 2.9 mm at the default 2 deg), the cycle's echo energy
-    within 1 dB (measured 0.2 dB and 0.8 dB)."""
+    within 1 dB (measured 0.2 dB and 0.8 dB). Narrow-band, both spheres are found (within 1.5 mm
+    of their surfaces) since the part balance compares each tone relative to what the code's own
+    echo leaves in its filter (before, one sphere's own echo failed it: one beam was found)."""
     path, config, directions = two_targets(scene_file, TRANSDUCERS[kind])
     config = replace(config, trace=replace(config.trace, shared_ray_step=np.radians(step)))
     wide = replace(config, trace=replace(config.trace, cone_half_angle=np.radians(60.0),
@@ -47,7 +49,7 @@ def test_shared_hits_frame_matches_per_beam_tracing(scene_file, kind, step, rays
     schedule = shared.schedule(directions)
     ours = shared.frame(schedule, lambda t: IDENTITY)
     theirs = reference.frame(schedule, lambda t: IDENTITY)
-    assert ours.detected.sum() == found
+    assert ours.detected.sum() == found, ours.depth
     np.testing.assert_array_equal(ours.detected, theirs.detected)
     assert np.max(np.abs(ours.depth - theirs.depth)[ours.detected]) <= 1e-3
 

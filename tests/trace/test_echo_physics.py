@@ -217,14 +217,22 @@ def test_arrival_direction_places_an_off_axis_reflector(scene_file):
 def test_arrival_direction_puts_an_oblique_wall_point_on_the_wall(scene_file):
     """A drywall turned 50 deg about the vertical, crossing the beam axis at 2 m: its echo
     starts at the near edge of the main lobe. With the arrival direction the point lies within
-    1.5 cm of the wall (measured 9.5 mm); on the beam axis it is 3.5 cm in front of it."""
+    1.5 cm of the wall, the median over 10 seeds (measured 9.2 mm; one seed's speckle scatters
+    it by up to 2.4 cm either way: seed 0 alone gave 9.5 mm while points were placed 8 mm
+    beside the phase centre's direction, 15.7 mm placed right); on the beam axis it is 3.5 cm
+    in front of it."""
     tilt = np.radians(50.0)
     path = scene_file("oblique", material_xml("w", preset="drywall"),
                       rectangle_xml("w", (0, 0, 2.0), (0, 50.0, 0)))
     normal = np.array([-np.sin(tilt), 0.0, -np.cos(tilt)])
-    for config, low, high in ((QUIET, 0.0, 0.015), (_without_arrival_direction(QUIET), 0.03, 0.05)):
-        det = mitsonar.Sonar(path, config).ping(IDENTITY, BROADSIDE).detection
-        assert det.detected and low <= abs((det.point - [0, 0, 2.0]) @ normal) <= high, det
+    sonar = mitsonar.Sonar(path, QUIET)
+    off = [abs((d.point - [0, 0, 2.0]) @ normal) for d in
+           (sonar.ping(IDENTITY, BROADSIDE, seed=seed).detection for seed in range(10))
+           if d.detected]
+    assert len(off) >= 8 and np.median(off) <= 0.015, off
+    on_axis = mitsonar.Sonar(path, _without_arrival_direction(QUIET))
+    det = on_axis.ping(IDENTITY, BROADSIDE).detection
+    assert det.detected and 0.03 <= abs((det.point - [0, 0, 2.0]) @ normal) <= 0.05, det
 
 
 def test_specular_side_lobe_return_is_rejected_not_misranged(scene_file):
