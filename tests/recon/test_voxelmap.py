@@ -356,7 +356,7 @@ def test_checkerboard_wall_gives_voxels_with_the_colours_of_its_squares(scene_fi
     config = mitsonar.SonarConfig(transducer=mitsonar.Transducer(bandwidth_6db=20e3))
     sonar = mitsonar.Sonar(scene_file("board", material, wall, light), config)
     trajectory = mitsonar.Trajectory(np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]]), speed=1e-3)
-    spec = RepeatedMapSpec(frames=1, scan_step=np.radians(7.5), image_width=320, spp=16,
+    spec = RepeatedMapSpec(frames=1, scan_step=np.radians(5.0), image_width=320, spp=16,
                            voxels=VoxelMapSettings(voxel_size=0.05, outlier_neighbours=5))
     voxels, _, _ = map_repeated(sonar, trajectory, spec)
     coloured = voxels.coloured_counts > 0
