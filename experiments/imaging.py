@@ -27,7 +27,7 @@ peak: the beam's ``Detections`` entry with every echo on), ``all`` (every peak) 
 
 Scoring, with the comparison's definitions for every sensor (``experiments/comparison.py``):
 each cloud is thinned to one point per 1 cm voxel (``VoxelThinner``, a seeded random point of
-each) and scored by :func:`mitsonar.evaluation.metrics.evaluate` against the scene's mesh:
+each) and scored with the definitions of :func:`mitsonar.evaluation.metrics.evaluate`:
 ``accuracy_pct`` is the share of its points within 2 cm of the mesh, ``completeness_5cm_pct``
 the share of the observable ground-truth samples (1 cm apart, in line of sight of the sensor
 head at least once a second along the drive) with a point within 5 cm. The VLP-16 (10 Hz,
@@ -60,9 +60,10 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 import mitsonar
-from mitsonar.evaluation.metrics import evaluate, sample_surface, visible_from
+from mitsonar.evaluation.metrics import point_to_mesh, sample_surface, visible_from
 from mitsonar.evaluation.thinning import VoxelThinner
 from mitsonar.io import write_table
 from mitsonar.plots import _pyplot, save_png
@@ -70,6 +71,7 @@ from mitsonar.scene.mesh import scene_mesh
 from mitsonar.sensors.baselines import Lidar, sweep
 from mitsonar.sensors.imaging_sonar import ImagingSonar, TransmitSettings
 from mitsonar.sensors.ofdm_sonar import OfdmSonar, pose_along
+from mitsonar.sensors.sonar import beam_seed
 from mitsonar.sensors.trajectory import sensor_poses
 from mitsonar.signal.receiver import EchoProcessor
 
@@ -133,10 +135,6 @@ class Simulated:
     seconds: float
 
 
-def _seed(*parts) -> int:
-    return int(np.random.SeedSequence([int(p) for p in parts]).generate_state(1)[0])
-
-
 def echo_sets(echoes, points_world) -> dict:
     """Points (N, 3) [m] per echo set (:data:`ECHO_SETS`) of an echo table simulated with
     ``echoes = 'cells'`` and its world points (E, 3) [m]."""
@@ -158,7 +156,7 @@ def sequential_frame(sonar, pose_at, grid, start: float, seed: int) -> dict:
     period = sonar.config.record_duration
     sets = []
     for b, direction in enumerate(grid):  # pings follow each other in time
-        scan = sonar.scan(pose_at(start + b * period), direction[None], seed=_seed(seed, b))
+        scan = sonar.scan(pose_at(start + b * period), direction[None], seed=beam_seed(seed, b))
         sets.append(echo_sets(scan.echo_table, scan.echo_points_world))
     return {name: np.concatenate([s[name] for s in sets]) for name in ECHO_SETS}
 
@@ -173,7 +171,7 @@ def simulate(scan: str, sonar, trajectory, settings: RunSettings, progress) -> S
         period = len(grid) * sonar.config.record_duration
 
         def frame(t, k):
-            return sequential_frame(sonar, pose_at, grid, t, _seed(settings.seed, k))
+            return sequential_frame(sonar, pose_at, grid, t, beam_seed(settings.seed, k))
     elif scan in ("ofdm", "ofdm_image"):
         ofdm = OfdmSonar(sonar)
         if scan == "ofdm_image":  # the same frames, decoded by receive imaging over each cone
@@ -186,7 +184,8 @@ def simulate(scan: str, sonar, trajectory, settings: RunSettings, progress) -> S
         period = schedule.frame_duration
 
         def frame(t, k):
-            result = ofdm.frame(schedule, pose_at, start_time=t, seed=_seed(settings.seed, k))
+            result = ofdm.frame(schedule, pose_at, start_time=t,
+                                seed=beam_seed(settings.seed, k))
             if scan == "ofdm_image":
                 return {"image": result.echo_points_world}
             return echo_sets(result.echo_table, result.echo_points_world)
@@ -196,7 +195,8 @@ def simulate(scan: str, sonar, trajectory, settings: RunSettings, progress) -> S
         period = imaging.cycle_time
 
         def frame(t, k):
-            return {"image": imaging.image(pose_at(t), seed=_seed(settings.seed, k)).points_world}
+            image = imaging.image(pose_at(t), seed=beam_seed(settings.seed, k))
+            return {"image": image.points_world}
     times = trajectory.times_at_rate(1.0 / period, settings.duration)
     chosen = np.arange(0, len(times), settings.stride)
     start = time.perf_counter()
@@ -218,17 +218,31 @@ class Truth:
     observable: np.ndarray
 
 
-def score(points, truth: Truth, seed: int) -> tuple[float, float, int]:
-    """(accuracy within 2 cm, completeness within 5 cm, thinned points) of world points (N, 3)
-    [m], thinned to one per 1 cm voxel as the comparison does."""
+def thinned(points, seed: int) -> np.ndarray:
+    """World points (N, 3) [m] thinned to one per 1 cm voxel, as the comparison does."""
     thinner = VoxelThinner(THIN_VOXEL, seed=seed)
     thinner.add(points)
-    thinned = thinner.result()
-    scores = {t: evaluate(thinned, truth.mesh, threshold=t, samples=truth.samples,
-                          observable=truth.observable).overall
-              for t in (ACCURACY_THRESHOLD, COMPLETENESS_THRESHOLD)}
-    return (scores[ACCURACY_THRESHOLD].accuracy, scores[COMPLETENESS_THRESHOLD].completeness,
-            len(thinned))
+    return thinner.result()
+
+
+def completeness(points, truth: Truth) -> float:
+    """Share of the observable ground-truth samples with one of ``points`` (N, 3) [m] within
+    5 cm (:func:`mitsonar.evaluation.metrics.evaluate`'s completeness)."""
+    samples = truth.samples.points[truth.observable]
+    if not len(points):
+        return 0.0
+    gap, _ = cKDTree(points).query(samples, distance_upper_bound=COMPLETENESS_THRESHOLD)
+    return float(np.mean(gap <= COMPLETENESS_THRESHOLD))
+
+
+def score(points, truth: Truth, seed: int) -> tuple[float, float, int]:
+    """(accuracy within 2 cm, completeness within 5 cm, thinned points) of world points (N, 3)
+    [m] thinned to one per 1 cm voxel: each point's distance to the mesh computed once
+    (:func:`~mitsonar.evaluation.metrics.point_to_mesh`), :func:`completeness` once."""
+    cloud = thinned(points, seed)
+    distance = point_to_mesh(cloud, truth.mesh)[0]
+    accuracy = float(np.mean(distance <= ACCURACY_THRESHOLD)) if len(cloud) else float("nan")
+    return accuracy, completeness(cloud, truth), len(cloud)
 
 
 def scene_truth(scene, trajectory, settings: RunSettings) -> Truth:
@@ -248,8 +262,7 @@ def lidar_completeness(scene, trajectory, truth: Truth, settings: RunSettings, b
     for _, points in sweep(lidar, trajectory, settings.duration, settings.seed):
         thinner.add(points)
         bar.update()
-    return evaluate(thinner.result(), truth.mesh, threshold=COMPLETENESS_THRESHOLD,
-                    samples=truth.samples, observable=truth.observable).overall.completeness
+    return completeness(thinner.result(), truth)
 
 
 def run_scene(name: str, presets, scans, settings: RunSettings) -> list[dict]:
@@ -282,7 +295,8 @@ def run_scene(name: str, presets, scans, settings: RunSettings) -> list[dict]:
                 for echoes, frames in sim.points.items():
                     points = np.concatenate(frames)
                     accuracy, completeness, thinned = score(points, truth, settings.seed)
-                    half = score(np.concatenate(frames[::2]), truth, settings.seed)[1]
+                    half = completeness(thinned(np.concatenate(frames[::2]),
+                                                settings.seed), truth)
                     strategy = scan if echoes == "image" else f"{scan}_{echoes}"
                     scan_kind = scan.split("_")[0]  # ofdm_image: OFDM frames
                     per_frame = len(points) / sim.frames_simulated
