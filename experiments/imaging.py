@@ -14,6 +14,12 @@ it was measured from (no odometry drift):
   from its own pose, :class:`~mitsonar.sensors.ofdm_sonar.OfdmSonar`).
 * imaging: single-ping receive images (:class:`~mitsonar.sensors.imaging_sonar.ImagingSonar`,
   one transmit element), one per listening cycle (30.4 / 34.0 ms).
+* ofdm_trusted: the same OFDM frames (poses and seeds), every echo and range cell trusted by
+  their arrival directions alone: no side-lobe check along the beam axis, one plane wave from
+  the measured direction explaining ``min_coherence`` of the channels' power (the check's
+  margin follows from it, docs/imaging.md) and that direction inside the lit cone,
+  :data:`TRUSTED_CONE` of the axis (``DetectionSettings(ghost_margin=0, arrival_cone=...)``):
+  one point set, ``ofdm_trusted``.
 * ofdm_image: the same OFDM frames (poses and seeds), decoded by receive imaging over each
   beam's lit cone (``DetectionSettings.echoes = 'image'``, :mod:`mitsonar.signal.cone`): one
   point set, ``ofdm_image``.
@@ -82,9 +88,17 @@ from comparison import THIN_VOXEL, VIEW_PERIOD  # noqa: E402
 SCENES = Path(__file__).resolve().parents[1] / "scenes"
 SCENE_NAMES = ("office", "workshop")
 PRESETS = ("default", "paper")
-SCANS = ("sequential", "ofdm", "ofdm_image", "imaging")
+SCANS = ("sequential", "ofdm", "ofdm_trusted", "ofdm_image", "imaging")
 #: Echo sets of one sequential or OFDM simulation (module docstring).
 ECHO_SETS = ("first", "all", "cells")
+#: The lit cone of ``ofdm_trusted``: arrival directions within it of their beam's axis [rad]
+#: (the steered transmit beam's -6 dB half-width, 3.1 deg at 40 kHz, as ``image_half_angle``).
+TRUSTED_CONE = np.radians(3.0)
+#: The OFDM frames decoded otherwise (module docstring): their receiver settings.
+DECODINGS = {"ofdm_trusted": dict(echoes="cells", ghost_margin=0.0, arrival_cone=TRUSTED_CONE),
+             "ofdm_image": dict(echoes="image")}
+#: What each scan of one point set reports (``echoes`` in the table).
+SINGLE_SETS = {"ofdm_trusted": "cells", "ofdm_image": "image", "imaging": "image"}
 #: Accuracy threshold [m] and completeness threshold [m].
 ACCURACY_THRESHOLD = 0.02
 COMPLETENESS_THRESHOLD = 0.05
@@ -95,7 +109,8 @@ GOALS = {"paper": (10.0, 0.90), "default": (3.0, 0.70)}
 #: Completeness [%] below which the figure draws it at this value (log scale).
 COMPLETENESS_FLOOR = 0.1
 MARKERS = {"sequential_first": "s", "sequential_all": "D", "sequential_cells": "P",
-           "ofdm_first": "o", "ofdm_all": "^", "ofdm_cells": "v", "ofdm_image": "X",
+           "ofdm_first": "o", "ofdm_all": "^", "ofdm_cells": "v", "ofdm_trusted": "p",
+           "ofdm_image": "X",
            "imaging": "*"}
 
 
@@ -124,7 +139,8 @@ class RunSettings:
 
 @dataclass
 class Simulated:
-    """What one scan gave along the drive: per echo set (one set, 'image', for imaging) the
+    """What one scan gave along the drive: per echo set (one set, named after the scan, for
+    the scans of :data:`SINGLE_SETS`) the
     world points (N_k, 3) [m] of each simulated frame k, the frames of its schedule and those
     simulated, its frame rate [Hz] and the simulation's wall-clock time [s]."""
 
@@ -172,13 +188,13 @@ def simulate(scan: str, sonar, trajectory, settings: RunSettings, progress) -> S
 
         def frame(t, k):
             return sequential_frame(sonar, pose_at, grid, t, beam_seed(settings.seed, k))
-    elif scan in ("ofdm", "ofdm_image"):
+    elif scan == "ofdm" or scan in DECODINGS:
         ofdm = OfdmSonar(sonar)
-        if scan == "ofdm_image":  # the same frames, decoded by receive imaging over each cone
+        if scan in DECODINGS:  # the same frames, decoded otherwise
             config = sonar.config
             ofdm.processor = EchoProcessor(config.geometry, ofdm.band,
                                            config.medium.speed_of_sound,
-                                           replace(config.detection, echoes="image"),
+                                           replace(config.detection, **DECODINGS[scan]),
                                            config.noise_rms)
         schedule = ofdm.schedule(grid)
         period = schedule.frame_duration
@@ -186,8 +202,8 @@ def simulate(scan: str, sonar, trajectory, settings: RunSettings, progress) -> S
         def frame(t, k):
             result = ofdm.frame(schedule, pose_at, start_time=t,
                                 seed=beam_seed(settings.seed, k))
-            if scan == "ofdm_image":
-                return {"image": result.echo_points_world}
+            if scan in DECODINGS:
+                return {scan: result.echo_points_world}
             return echo_sets(result.echo_table, result.echo_points_world)
     else:
         imaging = ImagingSonar(sonar, transmit=TransmitSettings(
@@ -196,7 +212,7 @@ def simulate(scan: str, sonar, trajectory, settings: RunSettings, progress) -> S
 
         def frame(t, k):
             image = imaging.image(pose_at(t), seed=beam_seed(settings.seed, k))
-            return {"image": image.points_world}
+            return {scan: image.points_world}
     times = trajectory.times_at_rate(1.0 / period, settings.duration)
     chosen = np.arange(0, len(times), settings.stride)
     start = time.perf_counter()
@@ -297,8 +313,9 @@ def run_scene(name: str, presets, scans, settings: RunSettings) -> list[dict]:
                     accuracy, completeness, thinned = score(points, truth, settings.seed)
                     half = completeness(thinned(np.concatenate(frames[::2]),
                                                 settings.seed), truth)
-                    strategy = scan if echoes == "image" else f"{scan}_{echoes}"
-                    scan_kind = scan.split("_")[0]  # ofdm_image: OFDM frames
+                    strategy = scan if scan in SINGLE_SETS else f"{scan}_{echoes}"
+                    echoes = SINGLE_SETS.get(scan, echoes)
+                    scan_kind = scan.split("_")[0]  # ofdm_image, ofdm_trusted: OFDM frames
                     per_frame = len(points) / sim.frames_simulated
                     rows.append({
                         "scene": name, "strategy": strategy, "preset": preset,
