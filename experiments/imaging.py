@@ -310,7 +310,7 @@ def run_scene(name: str, presets, scans, settings: RunSettings) -> list[dict]:
                 sim = simulate(scan, sonar, trajectory, settings, step)
                 for echoes, frames in sim.points.items():
                     points = np.concatenate(frames)
-                    accuracy, completeness, thinned = score(points, truth, settings.seed)
+                    accuracy, covered, kept = score(points, truth, settings.seed)
                     half = completeness(thinned(np.concatenate(frames[::2]),
                                                 settings.seed), truth)
                     strategy = scan if scan in SINGLE_SETS else f"{scan}_{echoes}"
@@ -326,18 +326,18 @@ def run_scene(name: str, presets, scans, settings: RunSettings) -> list[dict]:
                         "points_per_s_vs_today":
                             per_frame * sim.frame_rate / TODAY_POINTS_PER_S,
                         "accuracy_pct": 100 * accuracy,
-                        "completeness_5cm_pct": 100 * completeness,
+                        "completeness_5cm_pct": 100 * covered,
                         "completeness_5cm_half_pct": 100 * half,
                         "vlp16_completeness_5cm_pct": 100 * lidar,
-                        "completeness_vs_vlp16": completeness / lidar,
-                        "points": len(points), "thinned_points": thinned,
+                        "completeness_vs_vlp16": covered / lidar,
+                        "points": len(points), "thinned_points": kept,
                         "frames_simulated": sim.frames_simulated,
                         "frames_total": sim.frames_total, "stride": settings.stride,
                         "driven_s": driven, "sim_seconds": sim.seconds,
                         "sim_seconds_per_frame": sim.seconds / sim.frames_simulated})
                     print(f"{name} {preset} {strategy}: {per_frame:.1f} points/frame, "
                           f"{per_frame * sim.frame_rate:.0f} points/s, {100 * accuracy:.1f} % "
-                          f"within 2 cm, completeness {100 * completeness:.1f} % (5 cm), "
+                          f"within 2 cm, completeness {100 * covered:.1f} % (5 cm), "
                           f"{sim.seconds / sim.frames_simulated:.2f} s/frame", file=sys.stderr)
     return rows
 
