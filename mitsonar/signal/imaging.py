@@ -58,8 +58,9 @@ Points. A cell (direction d, sample k) inside the field of view is a point when
    <mitsonar.signal.beamforming.Beamformer.coherence>`, the receiver's trust rule on the same
    complex looks; one arrival: 1, a side lobe of a return from d0: about |AF(d; d0)|^2, several
    arrivals at once: the strongest one's share of their power). On receiver noise alone a cell
-   at s times the RMS noise envelope has coherence about s^2 / N_rx, so the rule asks noise for an SNR of sqrt(min_coherence N_rx) (3.2 with the
-   defaults): below ``detection_snr``, it leaves the design false-alarm rate unchanged.
+   at s times the RMS noise envelope has coherence about s^2 / N_rx, so the rule asks noise for
+   an SNR of sqrt(min_coherence N_rx) (3.2 with the defaults): below ``detection_snr``, it
+   leaves the design false-alarm rate unchanged.
 
    Measured on the shipped rooms (docs/imaging.md): a ping's recording holds a few hundred
    range peaks that are the peak of their main lobe, but at nearly every instant the channels
