@@ -201,7 +201,7 @@ def test_imaging_quick(tmp_path):
     rows = {(r["preset"], r["strategy"]): r
             for r in csv.DictReader((tmp_path / "imaging.csv").open())}
     strategies = [f"{scan}_{e}" for scan in ("sequential", "ofdm")
-                  for e in ("first", "all", "cells")] + ["ofdm_image", "imaging"]
+                  for e in ("first", "all", "cells")] + ["ofdm_trusted", "ofdm_image", "imaging"]
     assert set(rows) == {(p, s) for p in ("default", "paper") for s in strategies}
     office = mitsonar.load_scene(SCENES / "office" / "scene.xml")
     periods = {}  # the sensor's own frame time per preset and scan [s]

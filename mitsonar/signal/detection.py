@@ -62,6 +62,11 @@ class DetectionSettings:
             the receive channels' power at its instant is explained by one plane wave from its
             arrival direction (:class:`Echoes` ``coherence``; echoes without an arrival-direction
             estimate are kept, range cells are not).
+        arrival_cone: "all", "cells" and "image" keep an echo only where its arrival direction
+            lies within this angle of its beam's axis [rad], inside the cone its transmit beam
+            lights (None: anywhere the estimate reaches, ``ghost_exclusion``). An arrival
+            direction beyond it is the main lobe of an echo lit by the transmit side lobes, or
+            pulled there by one (measured, docs/imaging.md).
         image_step: "image": spacing of the receive directions across a beam's cone at
             broadside [rad] (sin(image_step) in direction cosines).
         image_half_angle: "image": half-angle of the cone imaged around each beam's axis [rad]
@@ -89,6 +94,7 @@ class DetectionSettings:
     echoes: str = "first"
     clutter_margin: float = 2.0
     min_coherence: float = 0.6
+    arrival_cone: float | None = None
     image_step: float = np.radians(2.0)
     image_half_angle: float = np.radians(3.0)
     off_beam: bool = False
@@ -121,6 +127,8 @@ class DetectionSettings:
         if not 0 < self.part_balance <= 1:
             raise ValueError(f"DetectionSettings.part_balance must be in (0, 1], "
                              f"got {self.part_balance}")
+        if self.arrival_cone is not None:
+            check_positive("DetectionSettings.arrival_cone", self.arrival_cone)
         if int(self.max_candidates) != self.max_candidates or self.max_candidates < 1:
             raise ValueError(f"DetectionSettings.max_candidates must be an integer >= 1, "
                              f"got {self.max_candidates}")

@@ -51,13 +51,16 @@ Points. A cell (direction d, sample k) inside the field of view is a point when
      the default 3).
 
 5. its direction is trusted: one plane wave from it explains at least ``min_coherence`` of the
-   receive channels' power at that instant, the coherence factor N_rx image(d, k)^2 /
-   sum_j |x_j|^2 with x_j channel j's matched-filter envelope read at sample k plus its delay
-   (5) towards d (linearly interpolated between samples; one arrival: 1, a side lobe of a
-   return from d0: about |AF(d; d0)|^2, several arrivals at once: the strongest one's share of
-   their power). On receiver noise alone a cell at s times the RMS noise envelope has coherence
-   about s^2 / N_rx, so the rule asks noise for an SNR of sqrt(min_coherence N_rx) (3.2 with the
-   defaults): below ``detection_snr``, it leaves the design false-alarm rate unchanged.
+   receive channels' power at that instant, the coherence factor |sum_j x_j|^2 /
+   (N_rx sum_j |x_j|^2) with x_j channel j matched-filtered, demodulated at the band's carrier,
+   read at sample k plus its delay (5) towards d (linearly interpolated between samples) and
+   phase-aligned (:meth:`Beamformer.coherence
+   <mitsonar.signal.beamforming.Beamformer.coherence>`, the receiver's trust rule on the same
+   complex looks; one arrival: 1, a side lobe of a return from d0: about |AF(d; d0)|^2, several
+   arrivals at once: the strongest one's share of their power). On receiver noise alone a cell
+   at s times the RMS noise envelope has coherence about s^2 / N_rx, so the rule asks noise for
+   an SNR of sqrt(min_coherence N_rx) (3.2 with the defaults): below ``detection_snr``, it
+   leaves the design false-alarm rate unchanged.
 
    Measured on the shipped rooms (docs/imaging.md): a ping's recording holds a few hundred
    range peaks that are the peak of their main lobe, but at nearly every instant the channels
@@ -247,6 +250,7 @@ class ReceiveImager:
         self._along_y = np.exp(-2j * np.pi * f * axis[:, None] * offsets[None, None, :, 1]
                                / self.c).astype(np.complex64)
         processor = EchoProcessor(geometry, band, speed_of_sound, detection, noise_rms)
+        self._beamformer = processor.beamformer
         #: RMS of the image of receiver noise alone [Pa].
         self.noise_level = processor.noise_envelope_rms()
         self._filter = processor.matched_filter()[0]
@@ -307,20 +311,20 @@ class ReceiveImager:
         return out
 
     def image(self, recording: Recording) -> tuple[np.ndarray, np.ndarray]:
-        """(image (D, N) [Pa], channel envelopes (N_rx, N) [Pa]) of a recording
-        (:meth:`envelopes` and :meth:`channel_envelopes` of its spectra)."""
+        """(image (D, N) [Pa], channels (N_rx, N) [Pa]) of a recording (:meth:`envelopes` and
+        :meth:`channel_signals` of its spectra)."""
         spectra = self.band.band_spectra(recording.samples)
-        return self.envelopes(spectra), self.channel_envelopes(spectra)
+        return self.envelopes(spectra), self.channel_signals(spectra)
 
-    def channel_envelopes(self, spectra: np.ndarray) -> np.ndarray:
-        """(N_rx, N) [Pa], float32: each receive channel's matched-filter envelope, on the
-        image's scale (one plane wave: every channel's envelope equals its beam's), of channel
-        spectra on the band (N_rx, nb)."""
-        return self.band.envelopes(spectra, self._filter, dtype=np.float32)
+    def channel_signals(self, spectra: np.ndarray) -> np.ndarray:
+        """(N_rx, N) [Pa], complex64: each receive channel matched-filtered and demodulated at
+        the band's carrier (analytic, on the image's scale: one plane wave gives every channel
+        the magnitude of its beam), of channel spectra on the band (N_rx, nb)."""
+        return self.band.to_analytic(spectra * self._filter).astype(np.complex64)
 
     def points(self, image: np.ndarray, channels: np.ndarray, start_time: float,
                direct_image: np.ndarray | None = None) -> ImagePoints:
-        """The points of an image (D, N) [Pa] and its channel envelopes (N_rx, N) [Pa]
+        """The points of an image (D, N) [Pa] and its channels (N_rx, N) [Pa]
         (:meth:`image`), sample 0 ``start_time`` [s] after the transmission (module docstring);
         ``direct_image`` (D, N): the image of the direct path alone, for blanking."""
         s, fs = self.settings, self.band.sample_rate
@@ -350,7 +354,7 @@ class ReceiveImager:
         row, k, value = row[keep], k[keep], value[keep].astype(float)
         passed["clutter"] = len(row)
         d = fov[row]
-        coherence = self.coherence(channels, value, d, k)
+        coherence = self.coherence(channels, d, k)
         keep = coherence >= s.min_coherence
         d, k, value, coherence = d[keep], k[keep], value[keep], coherence[keep]
         passed["trusted"] = len(d)
@@ -362,21 +366,17 @@ class ReceiveImager:
         return ImagePoints(points, arrival, length, value, snr, coherence,
                            np.stack([d, k], axis=1), passed)
 
-    def coherence(self, channels: np.ndarray, value: np.ndarray, d: np.ndarray,
-                  k: np.ndarray) -> np.ndarray:
+    def coherence(self, channels: np.ndarray, d: np.ndarray, k: np.ndarray) -> np.ndarray:
         """(P,) share of the channels' power at cells (grid direction d, sample k) that one plane
-        wave from d explains: N_rx value^2 / sum_j x_j^2, ``value`` (P,) the image there [Pa],
-        x_j the channel envelopes (N_rx, N) read at k plus their delays (5) towards d, linearly
-        interpolated (1 for a single arrival; NaN where the channels are silent)."""
-        offsets = self.geometry.rx_positions - self.geometry.rx_origin
-        late = k[:, None] - (self.directions[d] @ offsets.T) * self.band.sample_rate / self.c
-        first = np.clip(np.floor(late).astype(np.int64), 0, channels.shape[1] - 2)
-        fraction = np.clip(late - first, 0.0, 1.0)
-        element = np.arange(len(offsets))
-        x = channels[element, first] * (1 - fraction) + channels[element, first + 1] * fraction
-        total = np.sum(x.astype(float) ** 2, axis=1)
-        return np.divide(len(offsets) * value**2, total, out=np.full(len(value), np.nan),
-                         where=total > 0)
+        wave from d explains (:meth:`Beamformer.coherence
+        <mitsonar.signal.beamforming.Beamformer.coherence>` of ``channels`` (N_rx, N) from
+        :meth:`channel_signals`: 1 for a single arrival; NaN where the channels are silent)."""
+        count = len(d)
+        if not count:
+            return np.zeros(0)
+        return self._beamformer.coherence(channels[None], np.zeros(count, np.int64),
+                                          np.full(count, self.band.carrier), np.arange(count),
+                                          k.astype(float), self.directions[d])
 
     def _peak_offsets(self, image: np.ndarray, d: np.ndarray, k: np.ndarray) -> np.ndarray:
         """(P, 2) offsets [grid steps] along u_x and u_y of the main-lobe peaks around grid

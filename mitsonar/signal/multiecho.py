@@ -38,7 +38,10 @@ side lobes), places them (arrival direction, bistatic depth (7)) and reports the
   arrivals at once, such as two surfaces at one range or cross-talk over an echo, lower). On
   one OFDM frame each of room_glass and office (paper preset; 20 kHz transducers), 59-75 % of
   the echoes of coherence under 0.5 were within 2 cm of the mesh, 58-92 % of those in 0.5-0.6,
-  90-100 % of those over 0.6 (the default ``min_coherence``).
+  90-100 % of those over 0.6 (the default ``min_coherence``). With ``arrival_cone`` the
+  direction must also lie inside the cone the beam's transmit beam lights. A trusted direction
+  already passes the side-lobe check there (docs/imaging.md): with ``ghost_margin`` 0 the two
+  trust it alone.
 * False-alarm rate (:func:`expected_false_alarms`): receiver noise alone gives a Rayleigh
   envelope of RMS sigma (:meth:`EchoProcessor.noise_envelope_rms
   <mitsonar.signal.receiver.EchoProcessor.noise_envelope_rms>`), over eta sigma with probability

@@ -48,8 +48,8 @@ def report(processor, envelopes, threshold, window, start_time, transmit, u, wav
            beams, samples, cells, apparent=None, moved=None) -> Detections:
     """:class:`Detections` and :class:`Echoes` of B beams from the echoes their receiver chose
     (module docstring): each placed and, with ``echoes`` = "all", "cells" or "image", kept
-    where its direction is trustworthy (``min_coherence``); rows by beam and then by
-    decreasing amplitude.
+    where its direction is trustworthy (``min_coherence``, ``arrival_cone``); rows by beam
+    and then by decreasing amplitude.
 
     Args:
         processor: the receiver (:class:`~mitsonar.signal.receiver.EchoProcessor`).
@@ -97,6 +97,8 @@ def report(processor, envelopes, threshold, window, start_time, transmit, u, wav
     trusted = np.where(off_beam, offbeam.trusted(coherence, arrival, g, s),
                        (s.echoes == "first") | (coherence >= s.min_coherence)
                        | (peak & np.isnan(coherence)))
+    if s.echoes != "first" and s.arrival_cone is not None:  # inside the lit cone
+        trusted &= off_beam | (dot(arrival, u[beams]) >= np.cos(s.arrival_cone))
     noise = waves.noise[waves.kind[beams]]
     with np.errstate(divide="ignore"):  # no receiver noise: infinite SNR
         snr = envelopes[beams, k] / noise
