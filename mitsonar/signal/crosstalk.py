@@ -40,7 +40,10 @@ the transducers let the codes differ.
 * Measured (12 OFDM frames of 117 beams, TCT40, a drywall wall 1.5-2.3 m ahead facing the
   sensor or turned 8 deg, seeds 0-2): points more than 5 cm off the wall, 16 of 49 before;
   with the part balance relative to each part's gain (:meth:`EchoProcessor.part_gain
-  <mitsonar.signal.receiver.EchoProcessor.part_gain>`) 13 of 83; with this test too, none.
+  <mitsonar.signal.receiver.EchoProcessor.part_gain>`) 13 of 83; with this test too, none
+  (1 of 72, 0.83 m off, after merging with the batched trace and synthesis). Its cost
+  (docs/physics.md): genuine echoes rejected in `paper` frames, some against other beams'
+  direct paths, which the blanking already handles.
 """
 
 from __future__ import annotations
