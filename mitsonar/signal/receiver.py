@@ -339,12 +339,16 @@ class EchoProcessor:
         (:func:`~mitsonar.signal.crosstalk.own_code`)."""
         table = self._crosstalk(u, waves, transmit)[0]
         rho = crosstalk.separation(table)
+        codes = np.zeros((len(u), len(waves.kinds), envelopes.shape[1]))  # (B, K, N) [Pa]
+        steered = np.zeros(len(u), bool)
 
         def owned(beams, samples):
-            distinct, rows = np.unique(beams, return_inverse=True)
-            codes = crosstalk.steered_codes(self, looks, u[distinct], envelopes.shape[1])
+            new = np.unique(beams[~steered[beams]])  # each beam's codes steered once
+            if len(new):
+                codes[new] = crosstalk.steered_codes(self, looks, u[new], envelopes.shape[1])
+                steered[new] = True
             kind = waves.kind[beams]
-            leaked = crosstalk.leaks(codes, table, kind, rows, samples)
+            leaked = crosstalk.leaks(codes, table, kind, beams, samples)
             return crosstalk.own_code(envelopes[beams, samples], leaked, rho, kind,
                                       self.settings.clutter_margin)
         return owned
