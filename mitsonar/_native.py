@@ -18,6 +18,7 @@ import json
 import os
 import subprocess
 import sys
+import warnings
 from pathlib import Path
 
 _PROBE = (
@@ -119,9 +120,11 @@ def configure_llvm() -> str:
             + (", ".join(tried) or "none found")
             + ". Install the 'karellen-llvm-core' wheel (pip install karellen-llvm-core) or set "
               "DRJIT_LIBLLVM_PATH to a working libLLVM.so.")
-    if "drjit" in sys.modules:
-        # Too late to switch libraries in this process; the caller imported drjit first.
-        return os.environ.get("DRJIT_LIBLLVM_PATH", chosen)
+    if "drjit" in sys.modules:  # too late to switch libraries in this process
+        warnings.warn(f"drjit was imported before mitsonar, so Dr.Jit may have loaded a libLLVM "
+                      f"that aborts the process on its first 'fminimum' kernel; import mitsonar "
+                      f"first, or set DRJIT_LIBLLVM_PATH={chosen}", RuntimeWarning, stacklevel=2)
+        return chosen
     os.environ["DRJIT_LIBLLVM_PATH"] = chosen
     return chosen
 

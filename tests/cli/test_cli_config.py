@@ -1,6 +1,9 @@
 """Command line, configuration files and the native-library set-up."""
 
 import json
+import os
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -88,6 +91,20 @@ def test_llvm_selection_respects_user_and_fails_clearly(monkeypatch, tmp_path):
     monkeypatch.setattr(_native, "_llvm_candidates", lambda: [str(fake)])
     with pytest.raises(_native.NativeLibraryError, match="libLLVM-fake.so"):
         _native.configure_llvm()
+
+
+def test_importing_drjit_first_is_warned_about():
+    """Dr.Jit loads its libLLVM at import: imported before mitsonar it may have taken one that
+    aborts on 'fminimum' kernels, which the user is told about, with the library to set."""
+    env = {k: v for k, v in os.environ.items() if k != "DRJIT_LIBLLVM_PATH"}
+    run = subprocess.run([sys.executable, "-c", "import drjit, mitsonar"], env=env,
+                         capture_output=True, text=True, timeout=120)
+    assert run.returncode == 0
+    assert "drjit was imported before mitsonar" in run.stderr
+    assert "DRJIT_LIBLLVM_PATH=" in run.stderr
+    quiet = subprocess.run([sys.executable, "-c", "import mitsonar, drjit"], env=env,
+                           capture_output=True, text=True, timeout=120)
+    assert quiet.returncode == 0 and "imported before mitsonar" not in quiet.stderr
 
 
 def test_open3d_imports_with_the_shipped_libusb():
