@@ -214,10 +214,16 @@ class CameraRenderer:
         base = int(np.random.SeedSequence(seed).generate_state(1)[0] % (2**31))
         channels = 9 if self.model.denoise else 3
         total = np.zeros((self.model.height, self.model.width, channels))
-        for k in range(self.model.spp):  # passes of one sample per pixel, summed in order
+        # Passes of `chunk` samples per pixel, summed in order. A pixel's samples are adjacent
+        # in Mitsuba's wavefront; Dr.Jit's CPU threads take blocks of a power-of-two size, so
+        # with a power-of-two chunk each pixel is summed by one thread, in one order, and the
+        # image does not depend on the threads. Each render call costs ~0.4 s of tracing its
+        # kernel on a furnished scene, so one call of 8 samples takes 0.6 s, 8 calls 3.6 s.
+        chunk = self.model.spp & -self.model.spp  # the largest power of two dividing spp
+        for k in range(self.model.spp // chunk):
             img = mi.render(self.scene.scene, sensor=sensor, integrator=self._integrator,
-                            spp=1, seed=base + k)
-            total += np.asarray(img, dtype=float)[..., :channels]
+                            spp=chunk, seed=base + k)
+            total += chunk * np.asarray(img, dtype=float)[..., :channels]
         mean = (total / self.model.spp).astype(np.float32)
         rgb = denoise(mean[..., :3], mean[..., 3:6], mean[..., 6:9]) if self.model.denoise \
             else np.ascontiguousarray(mean[..., :3])
