@@ -184,7 +184,7 @@ class Band:
         spectra on the band (..., nb): a(t) exp(-j 2 pi carrier t) at the sample times."""
         full = np.zeros(spectrum.shape[:-1] + (self.n_grid,), dtype=complex)
         full[..., self._output_bins] = spectrum * self._output_scale
-        return sfft.ifft(full, axis=-1, workers=-1)[..., : self.n_samples]
+        return sfft.ifft(full, axis=-1, workers=-1, overwrite_x=True)[..., : self.n_samples]
 
     def envelopes(self, spectra: np.ndarray, filters: np.ndarray, n: int | None = None,
                   batch: int | None = None, dtype=float) -> np.ndarray:

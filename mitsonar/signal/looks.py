@@ -30,11 +30,15 @@ class Looks:
         waves: the beams' waveforms.
         start_time: time of sample 0 [s].
         n: samples per channel.
+        beamformed: (B, nb) the beams' own delay-and-sum spectra (:attr:`beamformed`).
     """
 
-    def __init__(self, band, spectra: np.ndarray, waves: Waveforms, start_time: float, n: int):
+    def __init__(self, band, spectra: np.ndarray, waves: Waveforms, start_time: float, n: int,
+                 beamformed: np.ndarray):
         self.band = band
         self.waves = waves
+        #: (B, nb) each beam's delay-and-sum of the channels towards its own direction.
+        self.beamformed = beamformed
         self.per_beam = spectra.ndim == 3
         self.spectra = spectra.reshape((-1,) + spectra.shape[-2:])
         #: (sets, N_rx, n): set r x T + t is recording r's look waveform t (T of them); filled
