@@ -46,7 +46,7 @@ class Looks:
         self.channels = np.empty((len(self.spectra) * len(waves.carriers),) + spectra.shape[-2:-1]
                                  + (n,), dtype=complex)
         self._ready = np.zeros(len(self.channels), bool)
-        self._times = start_time + np.arange(n) / self.band.sample_rate
+        self._start, self._n = start_time, n  # the channels' first sample time [s], samples
 
     def sets(self, beams, look) -> np.ndarray:
         """Sets (E,) in :attr:`channels` of looks ``look`` ((E,) or one for all) of ``beams``
@@ -58,11 +58,11 @@ class Looks:
             batch = new[first: first + LOOK_BATCH]
             recording, waveform = np.divmod(batch, n_looks)
             # The band's analytic signals are already demodulated by its own carrier.
-            offset = (self.waves.carriers[waveform] - self.band.carrier)[:, None]  # [Hz]
-            shift = np.exp(-2j * np.pi * offset * self._times)
+            shift = self.band.demodulation(self.waves.carriers, self._start, self._n)[waveform]
             analytic = self.band.to_analytic(self.spectra[recording]
                                              * self.waves.look_filters[waveform][:, None])
-            self.channels[batch] = analytic[..., : len(self._times)] * shift[:, None, :]
+            analytic = analytic[..., : self._n]
+            self.channels[batch] = np.multiply(analytic, shift[:, None, :], out=analytic)
             self._ready[batch] = True
         return keys
 
