@@ -100,9 +100,11 @@ class Beamformer:
         (no (B, N_rx, nb) product held at once)."""
         steering = self.steering(directions)
         total = spectra[..., 0, :] * steering[:, 0]
+        term = np.empty_like(total)
         for j in range(1, steering.shape[1]):
-            total += spectra[..., j, :] * steering[:, j]
-        return total / steering.shape[1]
+            total += np.multiply(spectra[..., j, :], steering[:, j], out=term)
+        total /= steering.shape[1]
+        return total
 
     def operator(self, directions, carriers, fractions=0.0, blocks=None) -> sparse.csr_matrix:
         """Narrow-band delay-and-sum towards directions (R, 3) as a sparse matrix acting on
