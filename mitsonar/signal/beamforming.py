@@ -24,8 +24,9 @@ from mitsonar.signal.detection import DetectionSettings, vertex
 #: Rounding above :meth:`Beamformer.off_beam`'s bound that a grid direction's beam may show
 #: (single-precision phasors: | |phase| - 1 | < 2e-7; sums of 50 terms: ~1e-14), allowed for.
 BOUND_ROUNDING = 1e-6
-#: Bytes of steering phasors a :class:`Beamformer` keeps (:meth:`Beamformer.steering`): the
-#: paper preset's 117-beam schedule needs 88 MB for its five cycles, the default one's 12 MB.
+#: Bytes of steering phasors a :class:`Beamformer` keeps (:meth:`Beamformer.steering`): a
+#: 117-beam OFDM schedule's five cycles take 88 MB (paper preset) or 78 MB (default), formed
+#: again every frame; a few MB more for off-beam directions.
 STEERING_KEPT = 160 * 2**20
 
 
@@ -233,9 +234,10 @@ class Beamformer:
         k = np.floor(samples).astype(np.int64)
         fractions = samples - k
         delays = self.receive_delays(grid)  # (D, G^2, N_rx) [s]: once per beam, not per look
+        per_look = side * side
         operator = self._matrix(*self._weights(
-            delays[beams].reshape(-1, delays.shape[-1]), np.repeat(carriers, side * side),
-            np.repeat(fractions[beams], side * side), np.repeat(np.arange(len(beams)), side * side)))
+            delays[beams].reshape(-1, delays.shape[-1]), np.repeat(carriers, per_look),
+            np.repeat(fractions[beams], per_look), np.repeat(np.arange(len(beams)), per_look)))
         looks = np.abs(operator @ self.windows(channels, sets, k[beams]).T.ravel()) ** 2
         power = np.zeros(grid.shape[:2])
         np.add.at(power, beams, looks.reshape(len(beams), -1))
