@@ -21,6 +21,14 @@ from mitsonar.physics.waveforms import phasor
 from mitsonar.signal.band import Band
 from mitsonar.signal.detection import DetectionSettings, vertex
 
+#: Rounding above :meth:`Beamformer.off_beam`'s bound that a grid direction's beam may show
+#: (single-precision phasors: | |phase| - 1 | < 2e-7; sums of 50 terms: ~1e-14), allowed for.
+BOUND_ROUNDING = 1e-6
+#: Bytes of steering phasors a :class:`Beamformer` keeps (:meth:`Beamformer.steering`): a
+#: 117-beam OFDM schedule's five cycles take 88 MB (paper preset) or 78 MB (default), formed
+#: again every frame; a few MB more for off-beam directions.
+STEERING_KEPT = 160 * 2**20
+
 
 def dot(a, b) -> np.ndarray:
     """Dot products of 3-vectors (..., 3), broadcast, summed term by term: a pair of vectors gets
@@ -58,7 +66,8 @@ class Beamformer:
         # Its every third direction along each axis, checked first (:meth:`off_beam`).
         self._coarse = np.arange(len(self.ghost_grid)).reshape(len(h), len(h))[::3, ::3].ravel()
         self._ghost_operators = {}  # (carrier [Hz], coarse) -> operator
-        self._steering = (None, None)  # (directions, phasors) last formed
+        self._ghost_reach = None  # (N_rx, L) window samples the grid reads (:meth:`off_beam`)
+        self._steering = {}  # directions' bytes -> phasors, oldest first
 
     def receive_delays(self, directions) -> np.ndarray:
         """Plane-wave delays t_j^B(psi) of (5) [s], (..., N_rx) for directions (..., 3): channel
@@ -67,17 +76,24 @@ class Beamformer:
 
     def steering(self, directions) -> np.ndarray:
         """Phasors exp(j 2 pi f t_j^B) (B, N_rx, nb) at the band's frequencies f for directions
-        (B, 3) (complex64, :func:`~mitsonar.physics.waveforms.phasor`); kept for the last
-        directions (the beams of a cycle are formed for their codes and for blanking)."""
+        (B, 3) (complex64, :func:`~mitsonar.physics.waveforms.phasor`, read only); kept for
+        the latest ``STEERING_KEPT`` bytes of directions asked for (an OFDM schedule's cycles
+        are formed again every frame)."""
         directions = np.ascontiguousarray(directions, dtype=float)
         key = directions.tobytes()
-        if self._steering[0] != key:
+        if key not in self._steering:
             delays = self.receive_delays(directions)  # (B, N_rx) [s]
             phasors = np.empty(delays.shape + self.band.frequencies.shape, np.complex64)
             for j in range(delays.shape[1]):  # a channel at a time: small temporaries
                 phasors[:, j] = phasor(2 * np.pi * self.band.frequencies * delays[:, j, None])
-            self._steering = (key, phasors)
-        return self._steering[1]
+            phasors.setflags(write=False)
+            held = sum(p.nbytes for p in self._steering.values())
+            for old in list(self._steering):  # the oldest out first (a few entries)
+                if held + phasors.nbytes <= STEERING_KEPT:
+                    break
+                held -= self._steering.pop(old).nbytes
+            self._steering[key] = phasors
+        return self._steering[key]
 
     def beamformed(self, spectra: np.ndarray, directions) -> np.ndarray:
         """Delay-and-sum (B, nb) of channel spectra on the band, (N_rx, nb) shared by all beams
@@ -85,9 +101,11 @@ class Beamformer:
         (no (B, N_rx, nb) product held at once)."""
         steering = self.steering(directions)
         total = spectra[..., 0, :] * steering[:, 0]
+        term = np.empty_like(total)
         for j in range(1, steering.shape[1]):
-            total += spectra[..., j, :] * steering[:, j]
-        return total / steering.shape[1]
+            total += np.multiply(spectra[..., j, :], steering[:, j], out=term)
+        total /= steering.shape[1]
+        return total
 
     def operator(self, directions, carriers, fractions=0.0, blocks=None) -> sparse.csr_matrix:
         """Narrow-band delay-and-sum towards directions (R, 3) as a sparse matrix acting on
@@ -99,18 +117,22 @@ class Beamformer:
         ((R,) or a scalar), each channel read at its delay (5) by linear interpolation and
         phase-aligned at the carrier. W covers the largest delay. Shape (R, n_blocks N_rx L).
         """
-        data, columns, blocks = self._weights(directions, carriers, fractions, blocks)
+        return self._matrix(*self._weights(self.receive_delays(directions), carriers, fractions,
+                                           blocks))
+
+    def _matrix(self, data, columns, blocks) -> sparse.csr_matrix:
+        """:meth:`operator` of its rows (:meth:`_weights`)."""
         rows, n_rx = len(data), data.shape[1] // 2
         n_blocks = int(blocks.max(initial=0)) + 1
         return sparse.csr_matrix((data.ravel(), columns.ravel(), np.arange(rows + 1) * 2 * n_rx),
                                  shape=(rows, n_blocks * n_rx * (2 * self.window_lag + 2)))
 
-    def _weights(self, directions, carriers, fractions, blocks):
-        """The rows of :meth:`operator` (arguments as there): weights (R, 2 N_rx) and columns
+    def _weights(self, delays, carriers, fractions, blocks):
+        """The rows of :meth:`operator` towards directions of receive delays ``delays`` (R, N_rx)
+        [s] (:meth:`receive_delays`; other arguments as there): weights (R, 2 N_rx) and columns
         (R, 2 N_rx), (1 - frac) and frac at columns c, c + 1 for each channel in turn, and the
         blocks (R,)."""
         fs = self.band.sample_rate
-        delays = self.receive_delays(directions)  # (R, N_rx) [s]
         rows, n_rx = delays.shape
         q = np.reshape(fractions, (-1, 1)) + delays * fs
         length = 2 * self.window_lag + 2
@@ -149,7 +171,12 @@ class Beamformer:
         is ``ghost_margin`` times stronger than that direction. Every third direction of the grid
         along each axis is tried first, the whole grid only where none of them is (the same
         decisions, a ninth of the work for most rejections: on room_glass's OFDM frame the
-        coarse grid finds 703 of 705). A sparse product per carrier for each.
+        coarse grid finds 703 of 705). A sparse product per carrier for each. Windows where no
+        direction can beat the beam are not formed at all: a direction's beam is at most the
+        sum over channels of the largest magnitude each holds among the samples the grid reads
+        (interpolation weights of sum 1, unit phasors), so where ``ghost_margin`` times the
+        beam exceeds that sum (``BOUND_ROUNDING`` allowed for) the answer is False without the
+        grid (the same decisions; most echoes that arrive along their beam).
         """
         s = self.settings
         directions = np.asarray(directions, dtype=float)
@@ -158,11 +185,15 @@ class Beamformer:
         entries = np.arange(len(carriers))
         beam = np.abs(self.operator(directions, carriers, blocks=entries)
                       @ windows.T.ravel())
+        reach = self.ghost_reach()
+        magnitude = np.abs(windows).reshape(reach.shape + (-1,))
+        bound = np.where(reach[..., None], magnitude, 0.0).max(axis=1).sum(axis=0)
+        doubtful = bound * (1 + BOUND_ROUNDING) > s.ghost_margin * beam  # may be off the beam
         off = np.zeros(len(carriers), bool)
         for coarse in (True, False):
             grid = self.ghost_grid[self._coarse] if coarse else self.ghost_grid
-            for carrier in np.unique(carriers[~off]):
-                mine = entries[(carriers == carrier) & ~off]
+            for carrier in np.unique(carriers[doubtful & ~off]):
+                mine = entries[(carriers == carrier) & doubtful & ~off]
                 if (carrier, coarse) not in self._ghost_operators:  # the same for every beam
                     self._ghost_operators[carrier, coarse] = self.operator(grid, carrier)
                 ghosts = np.abs(self._ghost_operators[carrier, coarse] @ windows[:, mine])
@@ -170,6 +201,16 @@ class Beamformer:
                 off[mine] = np.where(outside, ghosts, 0.0).max(axis=0) \
                     > s.ghost_margin * beam[mine]
         return off
+
+    def ghost_reach(self) -> np.ndarray:
+        """(N_rx, L) which samples of each channel's window (:meth:`windows`) some direction of
+        the side-lobe check's grid reads (a channel near the receive origin reads few)."""
+        if self._ghost_reach is None:
+            columns = self._weights(self.receive_delays(self.ghost_grid), 0.0, 0.0, None)[1]
+            reach = np.zeros(len(self._offsets) * (2 * self.window_lag + 2), bool)
+            reach[columns.ravel()] = True
+            self._ghost_reach = reach.reshape(len(self._offsets), -1)
+        return self._ghost_reach
 
     def arrival_directions(self, channels: np.ndarray, sets, carriers, beams, samples,
                            directions) -> np.ndarray:
@@ -192,9 +233,11 @@ class Beamformer:
         grid = grid.reshape(len(directions), side * side, 3)
         k = np.floor(samples).astype(np.int64)
         fractions = samples - k
-        operator = self.operator(grid[beams].reshape(-1, 3), np.repeat(carriers, side * side),
-                                 np.repeat(fractions[beams], side * side),
-                                 np.repeat(np.arange(len(beams)), side * side))
+        delays = self.receive_delays(grid)  # (D, G^2, N_rx) [s]: once per beam, not per look
+        per_look = side * side
+        operator = self._matrix(*self._weights(
+            delays[beams].reshape(-1, delays.shape[-1]), np.repeat(carriers, per_look),
+            np.repeat(fractions[beams], per_look), np.repeat(np.arange(len(beams)), per_look)))
         looks = np.abs(operator @ self.windows(channels, sets, k[beams]).T.ravel()) ** 2
         power = np.zeros(grid.shape[:2])
         np.add.at(power, beams, looks.reshape(len(beams), -1))
@@ -225,8 +268,8 @@ class Beamformer:
         ``samples[e]`` plus its delay (5) towards ``directions[e]`` (E, 3) and phase-aligned,
         as :meth:`operator` reads them (their sum is the beam)."""
         k = np.floor(samples).astype(np.int64)
-        data, columns, _ = self._weights(np.asarray(directions, dtype=float), carriers,
-                                         samples - k, np.arange(len(k)))
+        data, columns, _ = self._weights(self.receive_delays(directions), carriers, samples - k,
+                                         np.arange(len(k)))
         windows = self.windows(channels, sets, k).T.ravel()
         return (data * windows[columns]).reshape(len(k), -1, 2).sum(axis=-1)
 

@@ -51,15 +51,17 @@ from __future__ import annotations
 import numpy as np
 
 
-def steered_codes(processor, looks, directions: np.ndarray, n: int) -> np.ndarray:
+def steered_codes(processor, looks, steered: np.ndarray, n: int,
+                  needed: np.ndarray | None = None) -> np.ndarray:
     """(D, K, n) [Pa] every kind of the cycle's waveforms (``looks.waves``) decoded on the
-    envelope of the shared recording (``looks.spectra[0]``) steered to ``directions`` (D, 3)."""
+    shared recording's delay-and-sum spectra ``steered`` (D, nb) (its beams towards D
+    directions); only where ``needed`` (D, K) if given (zeros elsewhere)."""
     waves = looks.waves
     kinds = len(waves.kinds)
-    steered = processor.beamformer.beamformed(looks.spectra[0], directions)  # (D, nb)
-    envelopes = processor.band.envelopes(np.repeat(steered, kinds, axis=0),
-                                         np.tile(waves.filters, (len(directions), 1)), n)
-    return envelopes.reshape(len(directions), kinds, n)
+    rows, kind = np.nonzero(np.ones((len(steered), kinds), bool) if needed is None else needed)
+    codes = np.zeros((len(steered), kinds, n))
+    codes[rows, kind] = processor.band.envelopes(steered[rows], waves.filters[kind], n)
+    return codes
 
 
 def leaks(codes: np.ndarray, crosstalk: np.ndarray, kind: np.ndarray, rows: np.ndarray,
@@ -95,4 +97,12 @@ def own_code(level: np.ndarray, leaked: np.ndarray, rho: np.ndarray, kind: np.nd
     rho2 = rho[kind] ** 2  # (E, K)
     with np.errstate(divide="ignore"):  # orthogonal codes (rho = 0): the margin
         factor = np.minimum(clutter_margin, 1.0 / (rho2 * np.sqrt(clutter_margin)))
-    return np.all((rho2 > 1.0 / clutter_margin) | (factor * leaked < level[:, None]), axis=1)
+    return np.all(~told_apart(rho, kind, clutter_margin) | (factor * leaked < level[:, None]),
+                  axis=1)
+
+
+def told_apart(rho: np.ndarray, kind: np.ndarray, clutter_margin: float) -> np.ndarray:
+    """(E, K) the kinds k' that :func:`own_code` tells apart from kinds ``kind`` (E,):
+    rho_kk'^2 <= 1 / ``clutter_margin`` (``rho`` (K, K), :func:`separation`); the only
+    kinds whose leaks it reads, besides a kind's own (whose leak is 0)."""
+    return rho[kind] ** 2 <= 1.0 / clutter_margin

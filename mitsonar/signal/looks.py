@@ -30,11 +30,15 @@ class Looks:
         waves: the beams' waveforms.
         start_time: time of sample 0 [s].
         n: samples per channel.
+        beamformed: (B, nb) the beams' own delay-and-sum spectra (:attr:`beamformed`).
     """
 
-    def __init__(self, band, spectra: np.ndarray, waves: Waveforms, start_time: float, n: int):
+    def __init__(self, band, spectra: np.ndarray, waves: Waveforms, start_time: float, n: int,
+                 beamformed: np.ndarray):
         self.band = band
         self.waves = waves
+        #: (B, nb) each beam's delay-and-sum of the channels towards its own direction.
+        self.beamformed = beamformed
         self.per_beam = spectra.ndim == 3
         self.spectra = spectra.reshape((-1,) + spectra.shape[-2:])
         #: (sets, N_rx, n): set r x T + t is recording r's look waveform t (T of them); filled
@@ -42,7 +46,7 @@ class Looks:
         self.channels = np.empty((len(self.spectra) * len(waves.carriers),) + spectra.shape[-2:-1]
                                  + (n,), dtype=complex)
         self._ready = np.zeros(len(self.channels), bool)
-        self._times = start_time + np.arange(n) / self.band.sample_rate
+        self._start, self._n = start_time, n  # the channels' first sample time [s], samples
 
     def sets(self, beams, look) -> np.ndarray:
         """Sets (E,) in :attr:`channels` of looks ``look`` ((E,) or one for all) of ``beams``
@@ -54,11 +58,11 @@ class Looks:
             batch = new[first: first + LOOK_BATCH]
             recording, waveform = np.divmod(batch, n_looks)
             # The band's analytic signals are already demodulated by its own carrier.
-            offset = (self.waves.carriers[waveform] - self.band.carrier)[:, None]  # [Hz]
-            shift = np.exp(-2j * np.pi * offset * self._times)
+            shift = self.band.demodulation(self.waves.carriers, self._start, self._n)[waveform]
             analytic = self.band.to_analytic(self.spectra[recording]
                                              * self.waves.look_filters[waveform][:, None])
-            self.channels[batch] = analytic[..., : len(self._times)] * shift[:, None, :]
+            analytic = analytic[..., : self._n]
+            self.channels[batch] = np.multiply(analytic, shift[:, None, :], out=analytic)
             self._ready[batch] = True
         return keys
 

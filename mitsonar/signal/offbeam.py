@@ -151,7 +151,8 @@ def cross_talk(processor, looks, crosstalk, beams, samples, centre, n) -> np.nda
     envelope steered there (where it hears an echo from that direction at full gain), times
     |X| (``crosstalk`` (K, K, 2 S + 1), :class:`~mitsonar.signal.multiecho.Clutter`) at every
     lag -S..S (:func:`~mitsonar.signal.crosstalk.leaks`); ``n`` samples per envelope."""
-    codes = steered_codes(processor, looks, centre, n)
+    codes = steered_codes(processor, looks,
+                          processor.beamformer.beamformed(looks.spectra[0], centre), n)
     return leaks(codes, crosstalk, looks.waves.kind[beams], np.arange(len(beams)),
                  samples).max(axis=1, initial=0.0)
 

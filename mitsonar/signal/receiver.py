@@ -252,7 +252,7 @@ class EchoProcessor:
             if self._cone is None:
                 self._cone = cone.ConeImager(self.geometry, self.band, self.c, s)
             image = self._cone.envelopes(self.beamformer, spectra, u, waves.filters[waves.kind], n)
-        looks = Looks(self.band, spectra, waves, start_time, n) \
+        looks = Looks(self.band, spectra, waves, start_time, n, beamformed) \
             if s.ghost_margin > 0 or s.arrival_step > 0 or image is not None else None
         return envelopes, self._decide(envelopes, start_time, u, direct_envelopes, waves,
                                        transmit_times, max_path_length, balanced, looks, shared,
@@ -345,7 +345,11 @@ class EchoProcessor:
         def owned(beams, samples):
             new = np.unique(beams[~steered[beams]])  # each beam's codes steered once
             if len(new):
-                codes[new] = crosstalk.steered_codes(self, looks, u[new], envelopes.shape[1])
+                kind = waves.kind[new]
+                needed = crosstalk.told_apart(rho, kind, self.settings.clutter_margin) \
+                    & (np.arange(len(waves.kinds)) != kind[:, None])  # what own_code reads
+                codes[new] = crosstalk.steered_codes(self, looks, looks.beamformed[new],
+                                                     envelopes.shape[1], needed)
                 steered[new] = True
             kind = waves.kind[beams]
             leaked = crosstalk.leaks(codes, table, kind, beams, samples)
