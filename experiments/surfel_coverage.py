@@ -235,7 +235,8 @@ def run_scene(name: str, path: Path, args) -> tuple[list, list, str]:
         early = build_map(surfel_map.scans[:count], surfel_map.settings)
         cloud = early.sample(0.01, seed=args.seed)[0] if len(early.triangles) \
             else np.zeros((0, 3))
-        growth.append(f"{count} frames {100 * covered_fraction(cloud, truth, DEFAULT_THRESHOLD):.1f}")
+        share = covered_fraction(cloud, truth, DEFAULT_THRESHOLD)
+        growth.append(f"{count} frames {100 * share:.1f}")
     line = (f"{name}: {driven:.1f} s driven, {len(surfel_map.scans)} frames, "
             f"{sum(s.pings for s in surfel_map.scans)} pings, {seconds:.0f} s; "
             f"{len(surfel_map.surfel_pose)} surfels registered, {len(surfel_map.groups)} planes; "
@@ -246,12 +247,11 @@ def run_scene(name: str, path: Path, args) -> tuple[list, list, str]:
 def parse_args(argv):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, default=Path("out/surfel_coverage"))
-    parser.add_argument("--scenes", default="room_glass,structure",
-                        help="comma separated shipped scenes (default room_glass,structure)")
+    parser.add_argument("--preset", default="paper", choices=("default", "paper"))
+    parser.add_argument("--scenes", default="room_glass,structure", help="shipped scenes, a,b")
     parser.add_argument("--duration", type=float, default=8.0,
                         help="seconds of each scene's default trajectory driven, at most all of it "
                              "(default 8)")
-    parser.add_argument("--preset", default="paper", choices=("default", "paper"))
     parser.add_argument("--width", type=int, default=800, help="camera image width [pixels]")
     parser.add_argument("--spp", type=int, default=8, help="camera samples per pixel")
     parser.add_argument("--spacing", type=float, default=0.02,
@@ -289,7 +289,8 @@ def main(argv=None) -> int:
     args.out.mkdir(parents=True, exist_ok=True)
     write_table(args.out / "surfel_coverage_frames.csv", frames)
     md = ["| scene | surface | observable m^2 | in view % | proposed % | registered % | "
-          "complete % | map points | within 2 cm % |", "|---|---|---:|---:|---:|---:|---:|---:|---:|"]
+          "complete % | map points | within 2 cm % |",
+          "|---|---|---:|---:|---:|---:|---:|---:|---:|"]
     md += [f"| {r['scene']} | {r['kind']} | {r['observable_m2']:.1f} | {r['reachable_pct']:.1f} | "
            f"{r['proposed_pct']:.1f} | {r['registered_pct']:.1f} | {r['complete_pct']:.1f} | "
            f"{r['map_points']} | {r['accuracy_pct']:.1f} |" for r in kinds]

@@ -336,7 +336,8 @@ def region_triangles(scan: PoseScan, settings: SurfelSettings = SurfelSettings()
 
     A triangle surfel needs two segments meeting at a junction; a floor bounded by one
     wall-floor crease and the crop's border, or a wall whose corners are out of view, has
-    none and was never pinged (room_glass, first 8 s: 0.7 % of the floor in view proposed).
+    none and was never pinged (room_glass, first 8 s: 0.7 % of the observable floor
+    proposed, 15.8 % in view).
     The points: the part's pixel farthest from its centroid, the pixel farthest from that one,
     and the pixel farthest from the line through both; kept when that last one is at least
     ``fill_margin`` off the line (three directions, not a line) and the three points' centroid
