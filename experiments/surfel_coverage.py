@@ -186,7 +186,7 @@ def run_scene(name: str, path: Path, args) -> tuple[list, list, str]:
     trajectory = mitsonar.Trajectory.from_scene(path)
     sonar = mitsonar.Sonar(scene, mitsonar.SonarConfig.preset(args.preset))
     settings = SurfelSettings(image_width=args.width, spp=args.spp, seed=args.seed,
-                              region_surfels=not args.no_region_surfels)
+                              region_surfels=args.region_surfels)
     duration = min(args.duration, trajectory.duration)
     start = time.perf_counter()
     surfel_map = map_surfels_along(sonar, trajectory, settings, duration)
@@ -257,8 +257,8 @@ def parse_args(argv):
     parser.add_argument("--spacing", type=float, default=0.02,
                         help="ground-truth sample spacing [m] (default 0.02)")
     parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--no-region-surfels", action="store_true",
-                        help="only the paper's triangle surfels (SurfelSettings.region_surfels)")
+    parser.add_argument("--region-surfels", action="store_true",
+                        help="also region surfels (SurfelSettings.region_surfels)")
     parser.add_argument("--quick", action="store_true",
                         help="room_glass's first 0.3 s, 320 px, 4 spp, 5 cm samples")
     args = parser.parse_args(argv)

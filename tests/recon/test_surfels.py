@@ -543,19 +543,20 @@ def test_region_surfels_map_a_floor_seen_without_corners(tmp_path):
     """Three still poses 3.5, 3.2 and 2.9 m from the wall y = 2 of the rendered corner, facing
     it: the camera sees the wall and the floor meeting in one crease and no corner (the wall
     x = 2 is out of view), so no two segments meet and no triangle surfel is proposed: no map
-    (``region_surfels=False``, the paper's candidates). Each pose's two regions get a region
-    surfel; the wall's lose echoes at the field of view's upper corners (oblique incidence),
-    the floor's three register and form one plane within 0.5 deg and 1 cm of the floor, grown
-    (measured, seed 0, 'paper' preset, 400 px: 0.01 deg, 1 mm, 31 324 mesh triangles)."""
+    (the default: the paper's candidates). With ``region_surfels`` each pose's two regions get
+    a region surfel; the wall's lose echoes at the field of view's upper corners (oblique
+    incidence), the floor's three register and form one plane within 0.5 deg and 1 cm of the
+    floor, grown (measured, seed 0, 'paper' preset, 400 px: 0.01 deg, 1 mm, 31 324 mesh
+    triangles)."""
     def scene_file(name, *parts):
         return write_scene(tmp_path / f"{name}.xml", *parts)
 
     path, planes = corner_scene(scene_file)
     sonar = mitsonar.Sonar(path, mitsonar.SonarConfig.preset("paper"))
     poses = [mitsonar.Pose.sensor_on_robot(-1.5, y, np.radians(90.0)) for y in (-1.5, -1.2, -0.9)]
-    paper = map_surfels(sonar, poses, settings=SurfelSettings(region_surfels=False))
+    paper = map_surfels(sonar, poses, settings=SurfelSettings())
     assert all(len(s.triangles) == 0 for s in paper.scans) and len(paper.triangles) == 0
-    surfel_map = map_surfels(sonar, poses, settings=SurfelSettings())
+    surfel_map = map_surfels(sonar, poses, settings=SurfelSettings(region_surfels=True))
     assert len(surfel_map.groups) >= 1
     floor = int(np.argmax(surfel_map.groups.normals @ planes["floor"][0]))
     angle, offset = plane_errors(surfel_map.groups, {"floor": planes["floor"]})[0]["floor"]
