@@ -88,6 +88,10 @@ QUICK: list[tuple[str, dict | str]] = [
     (".venv/bin/python experiments/incidence.py --scenes room_glass --presets "
      "default,default_broadband,default_no_sidelobe_check --period 4 --out out/incidence_why",
      BY_TEST_EXPERIMENTS),
+    (".venv/bin/python experiments/surfel_coverage.py --duration 8 --out out/surfel_coverage",
+     BY_TEST_EXPERIMENTS),
+    (".venv/bin/python experiments/surfel_coverage.py --quick --out out/surfel_coverage",
+     BY_TEST_EXPERIMENTS),
 ]
 
 

@@ -399,3 +399,23 @@ def test_incidence_variants_change_one_thing():
     for name, expected in same:  # repr: the configs hold arrays
         assert repr(config(name)) == repr(expected), name
     assert repr(config("default_broadband")) != repr(default)
+
+
+@pytest.mark.slow
+def test_surfel_coverage_quick(tmp_path):
+    """The coverage diagnostic drives room_glass's first 0.3 s: per frame the candidates and
+    their fates add up, per kind of surface the funnel narrows (in view >= proposed >=
+    registered)."""
+    run_experiment("surfel_coverage", "--quick", "--out", str(tmp_path))
+    frames = list(csv.DictReader((tmp_path / "surfel_coverage_frames.csv").open()))
+    assert frames and all(r["scene"] == "room_glass" for r in frames)
+    for r in frames:
+        fates = sum(int(r[k]) for k in ("no_echo_1", "no_echo_2", "no_echo_3", "no_echo_4",
+                                        "verification", "spread", "shadow", "refuted",
+                                        "registered"))
+        assert fates == int(r["candidates"])
+    kinds = {r["kind"]: r for r in csv.DictReader((tmp_path / "surfel_coverage.csv").open())}
+    assert {"all", "wall", "floor", "ceiling"} <= set(kinds)
+    for r in kinds.values():
+        assert float(r["reachable_pct"]) >= float(r["proposed_pct"]) >= \
+            float(r["registered_pct"]) >= 0

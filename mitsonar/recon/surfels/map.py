@@ -11,12 +11,12 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from mitsonar.recon.surfels.growing import (_region_at, camera_rays, check_pose, grow_planes,
-                                            heard_checks, intersect_planes, segment_sides,
-                                            shadow_segments)
+                                            heard_checks, intersect_planes, region_triangles,
+                                            segment_sides, shadow_segments)
 from mitsonar.recon.surfels.pinging import MovingPinger, StillPinger
 from mitsonar.recon.surfels.planes import (PlaneGroups, _on_planes, _pad_groups, _plane_stats,
                                            group_surfels, refine_planes)
-from mitsonar.recon.surfels.scanning import PoseScan, scan_pose
+from mitsonar.recon.surfels.scanning import PoseScan, add_surfels, scan_pose
 from mitsonar.recon.surfels.settings import SurfelSettings
 from mitsonar.sensors.camera import CameraModel, CameraRenderer
 from mitsonar.sensors.sonar import Sonar
@@ -84,8 +84,7 @@ def _register(scans, shadow, refuted=None):
         ok = scan.accepted.copy()
         if refuted is not None:
             ok &= ~refuted[p]
-        if len(scan.segment_pairs):
-            ok &= ~removed[scan.segment_pairs].any(axis=1)
+        ok &= ~scan.on_segments(removed)
         pose_ids.append(np.full(int(ok.sum()), p))
         index.append(np.nonzero(ok)[0])
     pose_ids, index = np.concatenate(pose_ids).astype(int), np.concatenate(index).astype(int)
@@ -233,8 +232,7 @@ def _build(scans, settings: SurfelSettings, refuted) -> SurfelMap:
     for s, r in zip(scans, shadow):
         rejected["no_echo"] += int(np.sum(~np.isfinite(s.residual)))
         rejected["verification"] += int(np.sum(np.isfinite(s.residual) & ~s.accepted))
-        if len(s.segment_pairs):
-            rejected["shadow_line"] += int(np.sum(s.accepted & r[s.segment_pairs].any(axis=1)))
+        rejected["shadow_line"] += int(np.sum(s.accepted & s.on_segments(r)))
     return SurfelMap(list(scans), groups, pose_ids, index, points, tri3d,
                      np.concatenate(vertices).reshape(-1, 3),
                      np.concatenate(triangles).reshape(-1, 3).astype(np.int64),
@@ -290,10 +288,20 @@ def map_surfels(sonar: Sonar, poses, odometry=None, settings: SurfelSettings = S
         if progress is not None:
             progress(k)
     surfel_map = build_map(scans, settings)
+    if settings.region_surfels:
+        added = False
+        for k, pose in enumerate(poses):
+            mesh = _tentative(scans[k], surfel_map, settings, surfel_map.shadow[k]) \
+                if len(surfel_map.groups) else None
+            triangles = region_triangles(scans[k], settings, mesh)
+            if len(triangles):
+                scans[k] = add_surfels(StillPinger(sonar, pose), scans[k], triangles, settings,
+                                       _region_seed(settings, k))
+                added = True
+        surfel_map = build_map(scans, settings) if added else surfel_map
     if settings.check_spacing == 0 or len(surfel_map.groups) == 0:
         return surfel_map
-    aims = [grow_planes(s, s.segments[~r], surfel_map.groups, surfel_map.surfel_points, settings,
-                        tentative=True) for s, r in zip(scans, surfel_map.shadow)]
+    aims = [_tentative(s, surfel_map, settings, r) for s, r in zip(scans, surfel_map.shadow)]
     checked = []
     for k, (pose, scan, mesh) in enumerate(zip(poses, scans, aims)):
         checked.append(check_pose(StillPinger(sonar, pose), scan, mesh, settings,
@@ -303,9 +311,22 @@ def map_surfels(sonar: Sonar, poses, odometry=None, settings: SurfelSettings = S
     return build_map(checked, settings)
 
 
+def _tentative(scan: PoseScan, surfel_map: SurfelMap, settings: SurfelSettings, shadow=None):
+    """The map's planes and hypotheses grown in ``scan``'s image without its ``shadow`` (n,)
+    bool segments (None: all kept): where the check pings are aimed."""
+    keep = slice(None) if shadow is None else ~shadow
+    return grow_planes(scan, scan.segments[keep], surfel_map.groups, surfel_map.surfel_points,
+                       settings, tentative=True)
+
+
 def _check_seed(settings: SurfelSettings, k: int) -> int:
     """Seed of pose ``k``'s check pings."""
     return int(np.random.SeedSequence([settings.seed + k, 2]).generate_state(1)[0])
+
+
+def _region_seed(settings: SurfelSettings, k: int) -> int:
+    """Seed of pose ``k``'s region surfels' pings."""
+    return int(np.random.SeedSequence([settings.seed + k, 3]).generate_state(1)[0])
 
 
 def _renderer(sonar: Sonar, settings: SurfelSettings) -> CameraRenderer:
@@ -351,8 +372,14 @@ def map_surfels_along(sonar: Sonar, trajectory: Trajectory,
         start, k = frame * period, len(scans)
         pinger = MovingPinger(sonar, trajectory, image_time=start, time=start)
         scan = scan_pose(pinger, renderer, pinger.pose, settings, seed=settings.seed + k)
-        mesh = _mesh_so_far(scans + [scan], settings) if settings.check_spacing else None
-        if mesh is not None:
+        mesh = _mesh_so_far(scans + [scan], settings) \
+            if settings.check_spacing or settings.region_surfels else None
+        if settings.region_surfels:
+            triangles = region_triangles(scan, settings, mesh)
+            if len(triangles):
+                scan = add_surfels(pinger, scan, triangles, settings, _region_seed(settings, k))
+                mesh = _mesh_so_far(scans + [scan], settings)
+        if settings.check_spacing and mesh is not None:
             scan = check_pose(pinger, scan, mesh, settings, _check_seed(settings, k))
         scans.append(scan)
         times.append(start)

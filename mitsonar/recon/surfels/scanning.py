@@ -7,7 +7,7 @@ the beams: all from the image's pose, or one after another while the robot drive
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -61,8 +61,10 @@ class PoseScan:
         camera: the working camera model.
         box: (u0, v0, u1, v1) field-of-view crop [pixels].
         segments: (n, 4) detected line segments [pixels].
-        triangles: (k, 3, 2) image triangles of all candidate surfels [pixels].
-        segment_pairs: (k, 2) segments of each candidate.
+        triangles: (k, 3, 2) image triangles of all candidate surfels [pixels] (a region
+            surfel's vertices are its outer scan pixels, :func:`add_surfels`).
+        segment_pairs: (k, 2) segments of each candidate ((-1, -1): a region surfel,
+            :func:`add_surfels`).
         points_world: (k, 4, 3) measured points [m], NaN where no echo.
         residual: (k,) verification residual [m] (inf: an echo missing).
         accepted: (k,) registered.
@@ -86,6 +88,15 @@ class PoseScan:
     pings: int
     fill_world: np.ndarray | None = None
     checks: CheckPings | None = None
+
+    def on_segments(self, removed) -> np.ndarray:
+        """(k,) True for the candidates built on a segment ``removed`` (n,) bool marks (a
+        region surfel, segment pair (-1, -1), is built on none)."""
+        pairs = self.segment_pairs.reshape(-1, 2)
+        hit = np.zeros(pairs.shape, dtype=bool)
+        own = pairs >= 0
+        hit[own] = np.asarray(removed, dtype=bool)[pairs[own]]
+        return hit.any(axis=1)
 
 
 @dataclass(frozen=True)
@@ -184,35 +195,32 @@ def _fill_targets(camera: CameraModel, geometry, pixels, points_sensor):
     return out, target
 
 
-def scan_pose(pinger, renderer: CameraRenderer, odometry_pose: Pose,
-              settings: SurfelSettings = SurfelSettings(), seed: int = 0) -> PoseScan:
-    """Render, detect lines and surfels, ping their scan points, verify, register, fill.
+def ping_surfels(pinger, camera: CameraModel, odometry_pose: Pose, triangles,
+                 settings: SurfelSettings, seed: int, pixels=None):
+    """Ping candidate surfels, image triangles (k, 3, 2) [pixels], at their four scan pixels
+    (``pixels`` (k, 4, 2) [pixels], the centroid last; None: the paper's,
+    :func:`~mitsonar.recon.lines.scan_pixels`), verify (:func:`verify`, :func:`spread_ratio`),
+    register (12) by ``odometry_pose`` and ping the registered ones again at their fill pixels
+    (:func:`fill_pixels`).
 
-    ``pinger`` (:class:`~mitsonar.recon.surfels.pinging.StillPinger` or
-    :class:`~mitsonar.recon.surfels.pinging.MovingPinger`) fires the beams; its ``pose`` places
-    the camera in the scene; ``odometry_pose`` registers the points (12).
-    """
-    camera = renderer.model
+    Returns measured points (k, 4, 3) [m] (world, NaN: no echo), verification residuals (k,)
+    [m], accepted (k,) and fill points (k, ``max_fill``, 3) [m] (NaN where none)."""
     sonar = pinger.sonar
-    fired = pinger.pings
-    images = renderer.render(pinger.pose, seed=seed)
-    box = fov_crop_box(camera, sonar.config.geometry)
-    segments = detect_segments(tone_map(images.gray), box, settings.segment_min_length,
-                               slope_sigma=settings.slope_sigma)
-    surfels = triangle_surfels(segments)
-    pixels = scan_pixels(surfels.vertices) if len(surfels) else np.zeros((0, 4, 2))
+    triangles = np.asarray(triangles, dtype=float).reshape(-1, 3, 2)
+    if pixels is None:
+        pixels = scan_pixels(triangles) if len(triangles) else np.zeros((0, 4, 2))
     directions = scan_directions(camera, pixels)
     measured = pinger.fire(directions.reshape(-1, 3), seed).reshape(-1, 4, 3)
     points = odometry_pose.transform_points(measured)
     accepted, residual = verify(points, settings.verify_threshold) if len(points) else \
         (np.zeros(0, bool), np.zeros(0))
-    if len(surfels):
+    if len(triangles):
         spread = spread_ratio(measured, directions.reshape(-1, 4, 3))
         accepted &= np.nan_to_num(spread) >= settings.min_spread
-    fill = np.full((len(surfels), settings.max_fill, 3), np.nan)
+    fill = np.full((len(triangles), settings.max_fill, 3), np.nan)
     if settings.max_fill and np.any(accepted):
         f = camera.focal_pixels
-        fp = fill_pixels(surfels.vertices[accepted], f * np.tan(settings.fill_spacing),
+        fp = fill_pixels(triangles[accepted], f * np.tan(settings.fill_spacing),
                          f * np.tan(settings.fill_margin), settings.max_fill)
         dirs, targets = _fill_targets(camera, sonar.config.geometry, fp, measured[accepted])
         aim = np.all(np.isfinite(dirs), axis=-1)
@@ -229,5 +237,49 @@ def scan_pose(pinger, renderer: CameraRenderer, odometry_pose: Pose,
                 far = np.abs(got[i] @ n - d) > settings.verify_threshold
                 got[i][far] = np.nan
             fill[accepted] = got
+    return points, residual, accepted, fill
+
+
+def scan_pose(pinger, renderer: CameraRenderer, odometry_pose: Pose,
+              settings: SurfelSettings = SurfelSettings(), seed: int = 0) -> PoseScan:
+    """Render, detect lines and surfels, ping their scan points, verify, register, fill.
+
+    ``pinger`` (:class:`~mitsonar.recon.surfels.pinging.StillPinger` or
+    :class:`~mitsonar.recon.surfels.pinging.MovingPinger`) fires the beams; its ``pose`` places
+    the camera in the scene; ``odometry_pose`` registers the points (12).
+    """
+    camera = renderer.model
+    fired = pinger.pings
+    images = renderer.render(pinger.pose, seed=seed)
+    box = fov_crop_box(camera, pinger.sonar.config.geometry)
+    segments = detect_segments(tone_map(images.gray), box, settings.segment_min_length,
+                               slope_sigma=settings.slope_sigma)
+    surfels = triangle_surfels(segments)
+    points, residual, accepted, fill = ping_surfels(pinger, camera, odometry_pose,
+                                                    surfels.vertices, settings, seed)
     return PoseScan(odometry_pose, camera, box, segments, surfels.vertices, surfels.segment_pairs,
                     points, residual, accepted, images.gray, pinger.pings - fired, fill)
+
+
+def add_surfels(pinger, scan: PoseScan, triangles, settings: SurfelSettings,
+                seed: int) -> PoseScan:
+    """``scan`` with region surfels (:func:`~mitsonar.recon.surfels.growing.region_triangles`),
+    image triangles (k, 3, 2) [pixels] built on no segment (segment pair (-1, -1)), pinged at
+    their vertices and centroid (spread over the region, not a third of the way in), verified
+    and filled like the others (:func:`ping_surfels`) by ``pinger`` from the scan's image
+    pose."""
+    fired = pinger.pings
+    triangles = np.asarray(triangles, dtype=float).reshape(-1, 3, 2)
+    pixels = np.concatenate([triangles, triangles.mean(axis=1, keepdims=True)], axis=1)
+    points, residual, accepted, fill = ping_surfels(pinger, scan.camera, scan.pose, triangles,
+                                                    settings, seed, pixels)
+    old_fill = scan.fill_world if scan.fill_world is not None else \
+        np.full((len(scan.triangles), settings.max_fill, 3), np.nan)
+    return replace(scan, triangles=np.concatenate([scan.triangles.reshape(-1, 3, 2), triangles]),
+                   segment_pairs=np.concatenate([scan.segment_pairs.reshape(-1, 2),
+                                                 np.full((len(points), 2), -1)]).astype(int),
+                   points_world=np.concatenate([scan.points_world.reshape(-1, 4, 3), points]),
+                   residual=np.concatenate([scan.residual, residual]),
+                   accepted=np.concatenate([scan.accepted, accepted]),
+                   fill_world=np.concatenate([old_fill, fill]),
+                   pings=scan.pings + pinger.pings - fired)
