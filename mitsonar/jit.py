@@ -108,7 +108,8 @@ def _dtype(array_type) -> np.dtype:
 
 def freeze(function, **options):
     """``drjit.freeze(function, **options)``, called with Python's garbage collector paused
-    (module docstring: Frozen kernels)."""
+    (module docstring: Frozen kernels); the frozen function itself is ``.frozen`` (its
+    ``n_recordings`` counts the recordings made)."""
     import drjit as dr
     frozen = dr.freeze(function, **options)
 
@@ -122,4 +123,34 @@ def freeze(function, **options):
             if collecting:
                 gc.enable()
 
+    call.frozen = frozen
     return call
+
+
+def concat(parts) -> tuple:
+    """Columns of flat Dr.Jit arrays joined end to end: ``parts`` holds each part's columns (a
+    tuple of arrays of one width); returns the joined columns, each as ``drjit.concat`` joins
+    it, evaluated. By kernels that do not depend on the parts' widths: ``drjit.concat`` writes
+    each part at its offset as a literal, and Dr.Jit fuses the writes of parts of equal width
+    into one kernel, so every new width, or coincidence of widths, of a beam's paths made a
+    new kernel, compiled anew. Here the offsets are variables (``drjit.opaque``) and each part
+    is written by a kernel of its own (all in one where every part has the same width)."""
+    import drjit as dr
+
+    parts = [tuple(p) for p in parts]
+    if len(parts) == 1:
+        return parts[0]
+    widths = [dr.width(p[0]) for p in parts]
+    index = dr.uint32_array_t(type(parts[0][0]))
+    columns = tuple(dr.empty(type(a), sum(widths)) for a in parts[0])
+    apart = len(set(widths)) > 1
+    start = 0
+    for part, width in zip(parts, widths):
+        at = dr.arange(index, width) + dr.opaque(index, start)
+        for column, values in zip(columns, part):
+            dr.scatter(column, values, at, mode=dr.ReduceMode.Permute)
+        if apart:
+            dr.eval(columns)
+        start += width
+    dr.eval(columns)
+    return columns

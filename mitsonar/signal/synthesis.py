@@ -326,14 +326,16 @@ class EchoSynthesizer:
                                          * (abs(omega) + fs * (hw + 1) * inv_var)))
         if len(paths) == 0 or scale == 0.0 or last <= -hw or first >= band.n_samples + hw:
             return np.zeros((n_channels, band.n_grid), dtype=np.complex64)
-        u = (paths.centre + (paths.offset - band.start_time)) * fs
+        # Per-beam offset, scale and window as variables: as literals, new kernels every beam.
+        offset, factor = (dr.opaque(Float64, x) for x in (paths.offset - band.start_time, scale))
+        u = (paths.centre + offset) * fs
         (a_re, a_im), (b_re, b_im) = paths.gain, paths.first_order
         first, last = max(first, -hw), min(last, band.n_samples + hw)
         origin, width = self._window(first, last)
-        gains = (Float64(a_re) * scale, Float64(a_im) * scale)
-        first_order = (Float64(b_re) * scale, Float64(b_im) * scale, dr.opaque(Float64, omega))
-        acc = _spread_kernel()(n_channels * width, u, Int64(paths.channel) * width - origin,
-                               gains, first_order,
+        gains = (Float64(a_re) * factor, Float64(a_im) * factor)
+        first_order = (Float64(b_re) * factor, Float64(b_im) * factor, dr.opaque(Float64, omega))
+        row = Int64(paths.channel) * dr.opaque(Int64, width) - dr.opaque(Int64, origin)
+        acc = _spread_kernel()(n_channels * width, u, row, gains, first_order,
                                dr.opaque(Float64, band.shift_bin / band.n_grid), hw, inv_var,
                                fs * inv_var, (u > -hw) & (u < band.n_samples + hw))
         return _folded(acc.numpy().reshape(n_channels, -1, 2), scale, band.n_grid, origin)
@@ -362,8 +364,7 @@ class EchoSynthesizer:
         return phasor(-2 * np.pi * (cycles - np.floor(cycles)))
 
     def impulse_grids(self, sets, n_channels: int) -> np.ndarray:
-        """:meth:`impulse_grid` (S, n_channels, n_grid) of sets of factored paths, each as
-        gridded alone, together (:meth:`_pair_grids`)."""
+        """:meth:`impulse_grid` (S, n_channels, n_grid) of factored paths' sets (_pair_grids)."""
         return self._pair_grids(sets, n_channels)
 
     def _pair_grids(self, sets, n_channels: int, per_pair: bool = False,
@@ -538,8 +539,7 @@ class EchoSynthesizer:
         return band.band_spectra(samples)
 
     def group_spectrum(self, paths: Paths, waveform, n_channels: int) -> np.ndarray:
-        """Analytic spectrum on the band (n_channels, nb) of the echoes of ``paths`` driven by
-        ``waveform``."""
+        """Analytic spectrum on the band (n_channels, nb) of ``paths`` driven by ``waveform``."""
         return self.groups_spectrum([(paths, waveform)], n_channels)
 
     def synthesize(self, paths: Paths, n_channels: int, noise_rms: float = 0.0,

@@ -69,6 +69,13 @@ def _rotate(rotation, v, inverse: bool = False):
     return np.einsum("kji,kj->ki" if inverse else "kij,kj->ki", rotation, v)
 
 
+def _rows(vectors) -> np.ndarray:
+    """(R, 3) float64 array of a Dr.Jit 3-vector array, copied component by component: NumPy's
+    conversion of the whole 3-vector array runs a kernel with the ray count as a literal, a new
+    kernel (compiled anew) for every ray count."""
+    return np.stack([np.asarray(vectors[k], dtype=float) for k in range(3)], axis=1)
+
+
 class RayCaster:
     """Ray grid, ray casts, refinement and shadow rays in one loaded scene.
 
@@ -193,8 +200,8 @@ class RayCaster:
             done = ~through
             idx = active[done]
             t[idx] = np.where(valid[done], t_total[idx] + hit_t[done], np.inf)
-            p[idx] = np.asarray(si.p, dtype=float).T[done]
-            nrm[idx] = np.asarray(si.n, dtype=float).T[done]
+            p[idx] = _rows(si.p)[done]
+            nrm[idx] = _rows(si.n)[done]
             mat[idx] = m[done]
             shape[idx] = np.where(valid[done], registry[done], -1)
             nxt = active[through]

@@ -23,7 +23,7 @@ from functools import cache, cached_property
 import drjit as dr
 import numpy as np
 
-from mitsonar.jit import backend, freeze, to_jit
+from mitsonar.jit import backend, concat, freeze, to_jit
 from mitsonar.trace.paths import Paths
 
 
@@ -214,18 +214,16 @@ class HitPaths:
         # are kept in that order, j after j.
         element = (thread[None, :] * group + np.arange(group)[:, None]).ravel()
 
-        def joined(k: int):
-            return dr.concat([out[k] for out in outputs]) if group > 1 else outputs[0][k]
-
+        joined = concat(outputs)
         centre = to_jit(Float64, (self.rx_delay + tx_mean).ravel()[element]) \
-            + Float64(joined(0))
+            + Float64(joined[0])
         channel = to_jit(UInt32, element % n_rx)
         # A merged path's delay lies within its pairs' (its centre is their weighted mean);
         # |a| <= sum_i |g_i| and |b| <= sum_i |g_i| |tau_i - m|, m between the tau_i.
         span = (float(self.arrivals[0].min()), float(self.arrivals[1].max()))
         bound = n_tx * self.gain_bound()
         peaks = (float(bound.max()), float(np.max(bound * np.ptp(self.tx_delay, axis=1))))
-        return [MergedHits((joined(k), joined(k + 1)), (joined(k + 2), joined(k + 3)), centre,
+        return [MergedHits(joined[k:k + 2], joined[k + 2:k + 4], centre,
                            channel, element, float(frequency), n_rx, span, peaks)
                 for k, frequency in zip(range(1, 4 * len(frequencies), 4), frequencies)]
 
@@ -270,14 +268,11 @@ class MergedHits:
         if len(parts) == 1:
             return parts[0]
 
-        def joined(arrays):
-            return dr.concat(list(arrays))
-
+        # Offsets as variables, not literals (a kernel each otherwise; see jit.concat).
+        joined = concat((*p.gain, *p.first_order, p.centre + dr.opaque(type(p.centre), p.offset),
+                         p.channel) for p in parts)
         starts = np.cumsum([0] + [len(p) for p in parts[:-1]])
-        return cls(tuple(joined(p.gain[k] for p in parts) for k in range(2)),
-                   tuple(joined(p.first_order[k] for p in parts) for k in range(2)),
-                   joined(p.centre + p.offset for p in parts),
-                   joined(p.channel for p in parts),
+        return cls(joined[0:2], joined[2:4], joined[4], joined[5],
                    np.concatenate([p.element + start for p, start in zip(parts, starts)]),
                    parts[0].frequency, max(p.receivers for p in parts),
                    (min(p.span[0] + p.offset for p in parts),
