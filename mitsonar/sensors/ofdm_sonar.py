@@ -35,6 +35,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from mitsonar.caching import kept
 from mitsonar.frames import Pose
 from mitsonar.sensors.sonar import PRE_ROLL, Sonar, beam_seed
 from mitsonar.signal.band import Band
@@ -263,19 +264,18 @@ class OfdmSonar:
         key = (np.ascontiguousarray(directions, dtype=float).tobytes(),
                np.ascontiguousarray(offsets, dtype=float).tobytes(), tuple(codes),
                self.processor)
-        if key not in self._directs:
-            n_rx = self.sonar.config.geometry.rx.count
+
+        def direct():
             tracer = self.sonar.tracer
             spectrum = self.synth.groups_spectrum(
                 [(tracer.direct_paths(u).delayed(offset), code)
-                 for u, offset, code in zip(directions, offsets, codes)], n_rx)
-            if len(self._directs) >= DIRECT_KEPT:
-                self._directs.clear()
-            kept = (spectrum, self.processor.noiseless_envelopes(spectrum, directions, codes))
-            for array in kept:  # shared by later frames: read only
+                 for u, offset, code in zip(directions, offsets, codes)],
+                self.sonar.config.geometry.rx.count)
+            tables = (spectrum, self.processor.noiseless_envelopes(spectrum, directions, codes))
+            for array in tables:  # shared by later frames: read only
                 array.setflags(write=False)
-            self._directs[key] = kept
-        return self._directs[key]
+            return tables
+        return kept(self._directs, key, DIRECT_KEPT, direct)
 
     def _cycle(self, schedule: Schedule, beams, poses, traced: dict, seed: int,
                crosstalk: bool, channels: bool) -> dict:

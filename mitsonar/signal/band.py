@@ -18,6 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.fft as sfft
 
+from mitsonar.caching import kept
 from mitsonar.physics.transducer import Transducer
 from mitsonar.validation import check_finite, check_positive
 
@@ -34,6 +35,9 @@ TRANSFORM_BYTES = 4 * 2**20
 #: Codes' system responses kept by :func:`code_response` for the whole process (~54 kB each;
 #: a 117-beam OFDM frame asks for ~80).
 RESPONSES_KEPT = 256
+#: Demodulation tables kept by :meth:`Band.demodulation` (an OFDM schedule's cycles ask for
+#: theirs every frame).
+DEMODULATIONS_KEPT = 16
 
 _responses: dict = {}
 
@@ -139,12 +143,9 @@ class Band:
         #: (nb,) bins of the band on an n_grid transform of a signal shifted down by f_d.
         self.grid_bins = (band_bins - self.shift_bin) % self.n_grid
         # The recording's transform bins of the band, with the factor from the grid's spectrum
-        # to a(t) exp(-j 2 pi carrier t) (module docstring).
-        # (Real recordings' bins are contiguous: a slice, which NumPy writes several times
-        # faster than an index array.)
-        self._output_bins = self.grid_bins if baseband else self.bins
-        # The same as runs of contiguous bins, (grid slice, band slice): one for real
-        # recordings, two for baseband (the band wraps around the grid's bin 0).
+        # to a(t) exp(-j 2 pi carrier t) (module docstring), as runs of contiguous bins, (grid
+        # slice, band slice): one for real recordings, two for baseband (the band wraps around
+        # the grid's bin 0); NumPy writes slices several times faster than index arrays.
         output = self.grid_bins if baseband else band_bins
         edges = np.concatenate([[0], np.flatnonzero(np.diff(output) != 1) + 1, [len(output)]])
         self._output_runs = [(slice(int(output[a]), int(output[b - 1]) + 1), slice(int(a), int(b)))
@@ -220,18 +221,17 @@ class Band:
     def demodulation(self, frequencies: np.ndarray, start_time: float, n: int) -> np.ndarray:
         """(T, n) exp(-j 2 pi (f_t - :attr:`carrier`) t) at n sample times from ``start_time``
         [s]: what turns the analytic recordings into channels demodulated at ``frequencies``
-        (T,) [Hz] (:class:`~mitsonar.signal.looks.Looks`); kept for 16 sets of arguments (an
-        OFDM schedule's cycles ask for theirs every frame; read only)."""
+        (T,) [Hz] (:class:`~mitsonar.signal.looks.Looks`); kept for ``DEMODULATIONS_KEPT`` sets of
+        arguments (an OFDM schedule's cycles ask for theirs every frame; read only)."""
         frequencies = np.asarray(frequencies, dtype=float)
         key = (frequencies.tobytes(), float(start_time), int(n))
-        if key not in self._demodulations:
-            if len(self._demodulations) >= 16:
-                self._demodulations.clear()
+
+        def table():
             times = start_time + np.arange(n) / self.sample_rate
-            table = np.exp(-2j * np.pi * (frequencies - self.carrier)[:, None] * times)
-            table.setflags(write=False)
-            self._demodulations[key] = table
-        return self._demodulations[key]
+            phasors = np.exp(-2j * np.pi * (frequencies - self.carrier)[:, None] * times)
+            phasors.setflags(write=False)
+            return phasors
+        return kept(self._demodulations, key, DEMODULATIONS_KEPT, table)
 
     def envelopes(self, spectra: np.ndarray, filters: np.ndarray, n: int | None = None,
                   batch: int | None = None, dtype=float) -> np.ndarray:
@@ -255,7 +255,7 @@ class Band:
         baseband as this band records them: the inverse of :meth:`to_samples` on the band (the
         recording's end cuts echoes that outlast it)."""
         if self.baseband:
-            return sfft.fft(samples, n=self.n_grid, axis=-1, workers=-1)[..., self._output_bins] \
+            return sfft.fft(samples, n=self.n_grid, axis=-1, workers=-1)[..., self.grid_bins] \
                 / self._output_scale
         return 2.0 * sfft.rfft(samples, n=self.n_fft, axis=-1, workers=-1)[..., self.bins]
 
@@ -278,8 +278,5 @@ def code_response(band: Band, waveform, frequencies) -> np.ndarray:
     frequencies = np.asarray(frequencies, dtype=float)
     key = (waveform, frequencies.tobytes(), band.reference_rate, band.transducer,
            band.transducer_response)
-    if key not in _responses:
-        if len(_responses) >= RESPONSES_KEPT:
-            _responses.clear()
-        _responses[key] = band.system_response(waveform, frequencies)
-    return _responses[key]
+    return kept(_responses, key, RESPONSES_KEPT,
+                lambda: band.system_response(waveform, frequencies))

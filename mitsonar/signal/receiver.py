@@ -80,6 +80,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from mitsonar.caching import kept
 from mitsonar.physics.array import ArrayGeometry
 from mitsonar.signal.band import Band, Recording
 from mitsonar.signal.beamforming import Beamformer, dot
@@ -414,7 +415,8 @@ class EchoProcessor:
         above ``CROSS_FLOOR``, each computed once per pair of kinds; the array factors at each
         beam's own frequency."""
         kinds = tuple(waves.kinds)
-        if kinds not in self._crosstalk_tables:  # each OFDM schedule cycle's once
+
+        def crosstalk_table():  # each OFDM schedule cycle's once
             span = max(int(np.flatnonzero(self.range_profile(w)[0] >= CROSS_FLOOR).max())
                        for w in kinds)
             missing = [(a, b) for a in kinds for b in kinds
@@ -427,11 +429,8 @@ class EchoProcessor:
                                     * self.matched_filter(a)[0] for a, b in missing]) * delay
                 lobes = np.abs(band.to_analytic(spectra)[:, : 2 * span + 1])
                 self._crosstalks.update(((a, b, span), x) for (a, b), x in zip(missing, lobes))
-            if len(self._crosstalk_tables) >= CROSS_TABLES_KEPT:
-                self._crosstalk_tables.clear()
-            self._crosstalk_tables[kinds] = np.stack(
-                [[self._crosstalks[a, b, span] for b in kinds] for a in kinds])
-        table = self._crosstalk_tables[kinds]
+            return np.stack([[self._crosstalks[a, b, span] for b in kinds] for a in kinds])
+        table = kept(self._crosstalk_tables, kinds, CROSS_TABLES_KEPT, crosstalk_table)
         frequencies = np.array([float(w.frequency) for w in waves.kinds])[waves.kind]
         g = self.geometry
         return (table, multiecho.array_gains(g.tx_positions, u, frequencies, self.c),

@@ -289,23 +289,20 @@ def map_surfels(sonar: Sonar, poses, odometry=None, settings: SurfelSettings = S
             progress(k)
     surfel_map = build_map(scans, settings)
     if settings.region_surfels:
-        added = False
+        before = list(scans)
         for k, pose in enumerate(poses):
             mesh = _tentative(scans[k], surfel_map, settings, surfel_map.shadow[k]) \
                 if len(surfel_map.groups) else None
-            triangles = region_triangles(scans[k], settings, mesh)
-            if len(triangles):
-                scans[k] = add_surfels(StillPinger(sonar, pose), scans[k], triangles, settings,
-                                       _region_seed(settings, k))
-                added = True
-        surfel_map = build_map(scans, settings) if added else surfel_map
+            scans[k] = _with_regions(StillPinger(sonar, pose), scans[k], mesh, settings, k)
+        if any(a is not b for a, b in zip(scans, before)):
+            surfel_map = build_map(scans, settings)
     if settings.check_spacing == 0 or len(surfel_map.groups) == 0:
         return surfel_map
     aims = [_tentative(s, surfel_map, settings, r) for s, r in zip(scans, surfel_map.shadow)]
     checked = []
     for k, (pose, scan, mesh) in enumerate(zip(poses, scans, aims)):
         checked.append(check_pose(StillPinger(sonar, pose), scan, mesh, settings,
-                                  _check_seed(settings, k)))
+                                  _pose_seed(settings, k, CHECK_STREAM)))
         if progress is not None:
             progress(k)
     return build_map(checked, settings)
@@ -319,14 +316,23 @@ def _tentative(scan: PoseScan, surfel_map: SurfelMap, settings: SurfelSettings, 
                        settings, tentative=True)
 
 
-def _check_seed(settings: SurfelSettings, k: int) -> int:
-    """Seed of pose ``k``'s check pings."""
-    return int(np.random.SeedSequence([settings.seed + k, 2]).generate_state(1)[0])
+#: Random streams of a pose's pings after its surfels' own: check pings, region surfels.
+CHECK_STREAM, REGION_STREAM = 2, 3
 
 
-def _region_seed(settings: SurfelSettings, k: int) -> int:
-    """Seed of pose ``k``'s region surfels' pings."""
-    return int(np.random.SeedSequence([settings.seed + k, 3]).generate_state(1)[0])
+def _pose_seed(settings: SurfelSettings, k: int, stream: int) -> int:
+    """Seed of pose ``k``'s pings of ``stream`` (``CHECK_STREAM``, ``REGION_STREAM``)."""
+    return int(np.random.SeedSequence([settings.seed + k, stream]).generate_state(1)[0])
+
+
+def _with_regions(pinger, scan: PoseScan, mesh, settings: SurfelSettings, k: int) -> PoseScan:
+    """``scan`` (pose ``k``) with its region surfels pinged by ``pinger``
+    (:func:`~mitsonar.recon.surfels.growing.region_triangles` of the regions ``mesh``'s planes
+    leave unclaimed; None: every region), or ``scan`` itself when there are none."""
+    triangles = region_triangles(scan, settings, mesh)
+    if not len(triangles):
+        return scan
+    return add_surfels(pinger, scan, triangles, settings, _pose_seed(settings, k, REGION_STREAM))
 
 
 def _renderer(sonar: Sonar, settings: SurfelSettings) -> CameraRenderer:
@@ -375,12 +381,11 @@ def map_surfels_along(sonar: Sonar, trajectory: Trajectory,
         mesh = _mesh_so_far(scans + [scan], settings) \
             if settings.check_spacing or settings.region_surfels else None
         if settings.region_surfels:
-            triangles = region_triangles(scan, settings, mesh)
-            if len(triangles):
-                scan = add_surfels(pinger, scan, triangles, settings, _region_seed(settings, k))
-                mesh = _mesh_so_far(scans + [scan], settings)
+            regions = _with_regions(pinger, scan, mesh, settings, k)
+            if regions is not scan:
+                scan, mesh = regions, _mesh_so_far(scans + [regions], settings)
         if settings.check_spacing and mesh is not None:
-            scan = check_pose(pinger, scan, mesh, settings, _check_seed(settings, k))
+            scan = check_pose(pinger, scan, mesh, settings, _pose_seed(settings, k, CHECK_STREAM))
         scans.append(scan)
         times.append(start)
         frame = max(int(np.ceil(pinger.time / period - 1e-9)), frame + 1)
