@@ -43,7 +43,7 @@ ROOT = Path(__file__).resolve().parents[1]
 FULL_RATE = dict(sample_rate=400e3, narrowband_bandwidth=0.0, baseband=False, band_floor=1e-5)
 #: Broadband transducers, as ``mitsonar map repeated --broadband`` chooses them: every element
 #: pair synthesised (no narrow-band merge).
-BROADBAND = Transducer(bandwidth_6db=20e3)
+BROADBAND = Transducer.broadband()
 
 
 def _timed(fn, repeat: int = 1):

@@ -157,7 +157,7 @@ def sonar_run(scene, mode: str, preset: str, trajectory, settings: RunSettings, 
         diagnosis = (f"{len(final.surfel_pose)} surfels registered ({rejected}), "
                      f"{len(final.groups)} planes")
         return clouds, len(clouds[-1]), len(final.scans), diagnosis
-    broadband = replace(config, transducer=mitsonar.Transducer(bandwidth_6db=20e3))
+    broadband = replace(config, transducer=mitsonar.Transducer.broadband())
     sonar = mitsonar.Sonar(scene, broadband)
     spec = RepeatedMapSpec(duration=settings.duration, scan_step=settings.step, echoes="all",
                            seed=settings.seed, voxels=VoxelMapSettings(voxel_size=MAP_VOXEL))

@@ -1,7 +1,9 @@
 """Scanning strategies (issue 28): points per second of driving, their accuracy and the map's
 completeness for the sequential scan, OFDM frames and single-ping receive imaging.
 
-For each scene (office, workshop) and sonar preset (the physical default ``SonarConfig()`` and
+For each scene (office, workshop) and sonar configuration (:data:`PRESETS`: the physical
+default ``SonarConfig()``, the same with broadband transducers, ``Transducer.broadband()``, as
+issue 28 measured the physical default and as repeated mode maps, and
 ``SonarConfig.preset('paper')``) the robot drives the scene's default trajectory (0.2 m/s, 30
 deg/s on the spot) and the sonar scans at its own rate, every point registered with the pose
 it was measured from (no odometry drift):
@@ -87,7 +89,9 @@ from comparison import THIN_VOXEL, VIEW_PERIOD  # noqa: E402
 
 SCENES = Path(__file__).resolve().parents[1] / "scenes"
 SCENE_NAMES = ("office", "workshop")
-PRESETS = ("default", "paper")
+#: The chart's sonar configurations (:func:`config_for`): "broadband" is the physical default
+#: with 20 kHz transducers (``Transducer.broadband()``).
+PRESETS = ("default", "broadband", "paper")
 SCANS = ("sequential", "ofdm", "ofdm_trusted", "ofdm_image", "imaging")
 #: Echo sets of one sequential or OFDM simulation (module docstring).
 ECHO_SETS = ("first", "all", "cells")
@@ -102,10 +106,13 @@ SINGLE_SETS = {"ofdm_trusted": "cells", "ofdm_image": "image", "imaging": "image
 #: Accuracy threshold [m] and completeness threshold [m].
 ACCURACY_THRESHOLD = 0.02
 COMPLETENESS_THRESHOLD = 0.05
-#: Issue 28's reference: OFDM frames back to back on office, paper preset, one echo per beam
-#: (43 points per 208.5 ms frame) [points/s], and its goals as multiples of it.
-TODAY_POINTS_PER_S = 208.0
-GOALS = {"paper": (10.0, 0.90), "default": (3.0, 0.70)}
+#: Issue 28's references [points/s]: OFDM frames back to back on office, one echo per beam, 43
+#: points per 208.5 ms frame with the paper preset and 24 with the physical default (broadband
+#: transducers), and its goals as (multiple of the reference, share within 2 cm).
+TODAY_POINTS_PER_S = {"paper": 208.0, "default": 115.0, "broadband": 115.0}
+GOALS = {"paper": (10.0, 0.90), "default": (3.0, 0.70), "broadband": (3.0, 0.70)}
+#: Marker colour per preset (the physical ones drawn open).
+COLOURS = {"paper": "C0", "default": "C1", "broadband": "C2"}
 #: Completeness [%] below which the figure draws it at this value (log scale).
 COMPLETENESS_FLOOR = 0.1
 MARKERS = {"sequential_first": "s", "sequential_all": "D", "sequential_cells": "P",
@@ -158,9 +165,16 @@ def echo_sets(echoes, points_world) -> dict:
             "all": points_world[echoes.peak], "cells": points_world}
 
 
+def config_for(preset: str) -> mitsonar.SonarConfig:
+    """The sonar configuration of a chart preset (:data:`PRESETS`)."""
+    if preset == "broadband":
+        return replace(mitsonar.SonarConfig(), transducer=mitsonar.Transducer.broadband())
+    return mitsonar.SonarConfig.preset(preset)
+
+
 def sonar_for(path: Path, preset: str, settings: RunSettings) -> mitsonar.Sonar:
     """The scene's sonar with ``preset``, every echo and range cell reported."""
-    config = mitsonar.SonarConfig.preset(preset)
+    config = config_for(preset)
     trace = config.trace if settings.rays_per_axis is None else \
         replace(config.trace, rays_per_axis=settings.rays_per_axis)
     return mitsonar.Sonar(path, replace(config, trace=trace).with_detection(echoes="cells"))
@@ -324,7 +338,7 @@ def run_scene(name: str, presets, scans, settings: RunSettings) -> list[dict]:
                         "points_per_frame": per_frame,
                         "points_per_s": per_frame * sim.frame_rate,
                         "points_per_s_vs_today":
-                            per_frame * sim.frame_rate / TODAY_POINTS_PER_S,
+                            per_frame * sim.frame_rate / TODAY_POINTS_PER_S[preset],
                         "accuracy_pct": 100 * accuracy,
                         "completeness_5cm_pct": 100 * covered,
                         "completeness_5cm_half_pct": 100 * half,
@@ -358,35 +372,36 @@ def markdown(rows) -> list[str]:
 
 def save_figure(path: Path, rows) -> None:
     """Points per second against accuracy (top) and completeness (bottom, log scale; values under
-    ``COMPLETENESS_FLOOR`` drawn at it), a column per scene: filled markers the paper preset, open
-    ones the default; issue 28's reference and goals dashed, the VLP-16's completeness and half of
-    it (the goal) in black."""
+    ``COMPLETENESS_FLOOR`` drawn at it), a column per scene, a colour per preset (the physical
+    ones open); issue 28's references dotted and goals dashed in each preset's colour (the
+    physical default's and broadband's coincide), the VLP-16's completeness and half of it (the
+    goal) in black."""
     plt = _pyplot()
     scenes = list(dict.fromkeys(r["scene"] for r in rows))
+    presets = list(dict.fromkeys(r["preset"] for r in rows))
     fig, axes = plt.subplots(2, len(scenes), figsize=(6.5 * len(scenes), 9.5), squeeze=False)
     for col, scene in enumerate(scenes):
         mine = [r for r in rows if r["scene"] == scene]
         top, bottom = axes[0, col], axes[1, col]
         for r in mine:
-            style = dict(marker=MARKERS[r["strategy"]], s=70, color="C0" if r["preset"] == "paper"
-                         else "C1", facecolors="none" if r["preset"] == "default" else None)
+            colour = COLOURS[r["preset"]]
+            style = dict(marker=MARKERS[r["strategy"]], s=70, color=colour,
+                         facecolors=colour if r["preset"] == "paper" else "none")
             x = max(r["points_per_s"], 1.0)
             top.scatter(x, r["accuracy_pct"], **style)
             bottom.scatter(x, max(r["completeness_5cm_pct"], COMPLETENESS_FLOOR), **style)
         lidar = mine[0]["vlp16_completeness_5cm_pct"]
         bottom.axhline(lidar, color="k", lw=1.2, label=f"VLP-16 at 10 Hz ({lidar:.1f} %)")
         bottom.axhline(lidar / 2, color="k", lw=1, ls=":", label="half the VLP-16's (goal)")
-        for ax in (top, bottom):
-            ax.axvline(TODAY_POINTS_PER_S, color="grey", ls=":", lw=1)
-        top.plot([], [], color="grey", ls=":", lw=1,
-                 label=f"issue 28's today: {TODAY_POINTS_PER_S:.0f} points/s (office, paper)")
-        for preset, (times, accuracy) in GOALS.items():
-            colour = "C0" if preset == "paper" else "C1"
+        for preset in presets:
+            colour, today = COLOURS[preset], TODAY_POINTS_PER_S[preset]
+            times, accuracy = GOALS[preset]
             for ax in (top, bottom):
-                ax.axvline(times * TODAY_POINTS_PER_S, color=colour, ls="--", lw=1)
+                ax.axvline(today, color=colour, ls=":", lw=1)
+                ax.axvline(times * today, color=colour, ls="--", lw=1)
             top.axhline(100 * accuracy, color=colour, ls="--", lw=1,
-                        label=f"{preset} goal: {times:g}x today, "
-                              f"{100 * accuracy:.0f} % within 2 cm")
+                        label=f"{preset}: today {today:.0f} points/s (dotted), goal {times:g}x "
+                              f"and {100 * accuracy:.0f} % within 2 cm (dashed)")
         for ax, label in ((top, "points within 2 cm [%]"),
                           (bottom, "completeness within 5 cm [%], simulated frames")):
             ax.set_xscale("log")
@@ -397,13 +412,14 @@ def save_figure(path: Path, rows) -> None:
         bottom.set_yscale("log")
         bottom.set_ylim(COMPLETENESS_FLOOR / 1.5, 100)
         top.set_title(f"{scene}: 1 frame in {mine[0]['stride']} simulated")
-        top.legend(loc="lower left", fontsize=8)
+        top.legend(loc="lower left", fontsize=7)
         bottom.legend(loc="center left", fontsize=8)
     handles = [plt.Line2D([], [], marker=m, ls="", color="grey", label=s.replace("_", ", "))
                for s, m in MARKERS.items()]
-    handles += [plt.Line2D([], [], marker="o", ls="", color=c, label=p, markerfacecolor=f)
-                for p, c, f in (("paper", "C0", "C0"), ("default", "C1", "none"))]
-    fig.legend(handles=handles, loc="lower center", ncol=5, fontsize=8)
+    handles += [plt.Line2D([], [], marker="o", ls="", color=COLOURS[p], label=p,
+                           markerfacecolor=COLOURS[p] if p == "paper" else "none")
+                for p in presets]
+    fig.legend(handles=handles, loc="lower center", ncol=6, fontsize=8)
     fig.tight_layout(rect=(0, 0.06, 1, 1))
     save_png(fig, path)
 

@@ -74,8 +74,6 @@ SCENE_NAMES = ("room_glass", "structure", "office", "workshop")
 #: (``DetectionSettings.off_beam``).
 PRESETS = ("default", "paper")
 VARIANTS = ("default_broadband", "default_no_sidelobe_check", "default_off_beam")
-#: The broadband variant's -6 dB transducer bandwidth [Hz].
-BROADBAND = 20e3
 #: Grid step [rad] and half span [rad] (in field-of-view angles around each beam) on which the
 #: beams' -3 dB cones are sampled; the span is checked to hold the whole cone.
 CONE_STEP = np.radians(0.25)
@@ -189,7 +187,7 @@ def material_labels(scenes: dict) -> dict:
 def sonar_config(name: str) -> mitsonar.SonarConfig:
     """The configuration of a preset or variant (:data:`PRESETS`, :data:`VARIANTS`)."""
     if name == "default_broadband":
-        return mitsonar.SonarConfig(transducer=mitsonar.Transducer(bandwidth_6db=BROADBAND))
+        return mitsonar.SonarConfig(transducer=mitsonar.Transducer.broadband())
     if name in ("default_no_sidelobe_check", "default_off_beam"):
         change = dict(ghost_margin=0.0) if name == "default_no_sidelobe_check" \
             else dict(off_beam=True)

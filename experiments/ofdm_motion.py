@@ -64,7 +64,7 @@ def main(argv=None) -> int:
     frames, step = args.frames, args.step
     if args.quick:
         speeds, frames, step = [0.1, 1.5], 2, 20.0
-    config = mitsonar.SonarConfig(transducer=mitsonar.Transducer(bandwidth_6db=20e3))
+    config = mitsonar.SonarConfig(transducer=mitsonar.Transducer.broadband())
     spec = RepeatedMapSpec(frames=frames, scan_step=np.radians(step), image_width=160, spp=4,
                            voxels=VoxelMapSettings(voxel_size=0.02))
     rows = []

@@ -198,15 +198,17 @@ def test_imaging_quick(tmp_path):
     from mitsonar.sensors.ofdm_sonar import OfdmSonar
 
     run_experiment("imaging", "--quick", "--out", str(tmp_path))
+    config_for = load_experiment("imaging").config_for
+    presets = ("default", "broadband", "paper")
     rows = {(r["preset"], r["strategy"]): r
             for r in csv.DictReader((tmp_path / "imaging.csv").open())}
     strategies = [f"{scan}_{e}" for scan in ("sequential", "ofdm")
                   for e in ("first", "all", "cells")] + ["ofdm_trusted", "ofdm_image", "imaging"]
-    assert set(rows) == {(p, s) for p in ("default", "paper") for s in strategies}
+    assert set(rows) == {(p, s) for p in presets for s in strategies}
     office = mitsonar.load_scene(SCENES / "office" / "scene.xml")
     periods = {}  # the sensor's own frame time per preset and scan [s]
-    for preset in ("default", "paper"):
-        config = mitsonar.SonarConfig.preset(preset)
+    for preset in presets:
+        config = config_for(preset)
         grid = config.geometry.fov_grid(np.radians(20.0))
         periods[preset] = {"sequential": len(grid) * config.record_duration,
                            "ofdm": OfdmSonar(mitsonar.Sonar(office, config)).schedule(grid)
@@ -219,7 +221,7 @@ def test_imaging_quick(tmp_path):
         assert 0 < number["vlp16_completeness_5cm_pct"] <= 100
         assert number["frames_simulated"] == number["frames_total"] >= 1  # stride 1
         assert number["frame_rate_hz"] == pytest.approx(1 / periods[preset][r["scan"]], rel=1e-5)
-    for preset in ("default", "paper"):
+    for preset in presets:
         for scan in ("sequential", "ofdm"):
             points = [int(rows[preset, f"{scan}_{e}"]["points"]) for e in ("first", "all", "cells")]
             assert points == sorted(points) and points[-1] > 0, (preset, scan, points)

@@ -86,7 +86,7 @@ def _run_repeated(args) -> int:
 
     config = SonarConfig.preset(args.preset)
     if args.broadband:
-        config = replace(config, transducer=Transducer(bandwidth_6db=20e3))
+        config = replace(config, transducer=Transducer.broadband())
     trajectory, driven = _drive(args)
     spec = RepeatedMapSpec(frames=args.frames, duration=driven, scan_step=np.radians(args.step),
                            voxels=VoxelMapSettings(voxel_size=args.voxel),

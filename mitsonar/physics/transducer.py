@@ -24,6 +24,10 @@ from scipy.special import j1
 
 from mitsonar.validation import check_positive
 
+#: -6 dB bandwidth [Hz] of the broadband elements the experiments and ``--broadband`` use
+#: (:meth:`Transducer.broadband`): wide enough for the OFDM codes' tones (32-48 kHz).
+BROADBAND_BANDWIDTH = 20e3
+
 
 @dataclass(frozen=True)
 class Transducer:
@@ -44,6 +48,11 @@ class Transducer:
     def __post_init__(self):
         for name in ("radius", "resonance_frequency", "bandwidth_6db", "source_amplitude"):
             check_positive(f"Transducer.{name}", getattr(self, name))
+
+    @classmethod
+    def broadband(cls) -> "Transducer":
+        """The same element with a :data:`BROADBAND_BANDWIDTH` (20 kHz) -6 dB bandwidth, Q 3.5."""
+        return cls(bandwidth_6db=BROADBAND_BANDWIDTH)
 
     @property
     def quality_factor(self) -> float:
