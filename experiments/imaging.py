@@ -38,7 +38,11 @@ each cloud is thinned to one point per 1 cm voxel (``VoxelThinner``, a seeded ra
 each) and scored with the definitions of :func:`mitsonar.evaluation.metrics.evaluate`:
 ``accuracy_pct`` is the share of its points within 2 cm of the mesh, ``completeness_5cm_pct``
 the share of the observable ground-truth samples (1 cm apart, in line of sight of the sensor
-head at least once a second along the drive) with a point within 5 cm. The VLP-16 (10 Hz,
+head at least once a second along the drive) with a point within 5 cm; ``sonar_in_view_pct``
+the share of those the sonar's field of view covers, within its range and line of sight, from
+one pose or more every :data:`IN_VIEW_PERIOD` along the drive
+(:func:`~mitsonar.evaluation.coverage.in_sensor_view`): no sonar strategy's completeness can
+exceed it. The VLP-16 (10 Hz,
 each column fired at its own time, :func:`mitsonar.sensors.baselines.sweep`) drives the same
 path, whole, and is scored the same way.
 
@@ -71,6 +75,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 import mitsonar
+from mitsonar.evaluation.coverage import in_sensor_view
 from mitsonar.evaluation.metrics import point_to_mesh, sample_surface, visible_from
 from mitsonar.evaluation.thinning import VoxelThinner
 from mitsonar.io import write_table
@@ -113,6 +118,8 @@ TODAY_POINTS_PER_S = {"paper": 208.0, "default": 115.0, "broadband": 115.0}
 GOALS = {"paper": (10.0, 0.90), "default": (3.0, 0.70), "broadband": (3.0, 0.70)}
 #: Marker colour per preset (the physical ones drawn open).
 COLOURS = {"paper": "C0", "default": "C1", "broadband": "C2"}
+#: Poses along the drive from which the sonar's view is taken [s] (about its frame period).
+IN_VIEW_PERIOD = 0.2
 #: Completeness [%] below which the figure draws it at this value (log scale).
 COMPLETENESS_FLOOR = 0.1
 MARKERS = {"sequential_first": "s", "sequential_all": "D", "sequential_cells": "P",
@@ -240,12 +247,14 @@ def simulate(scan: str, sonar, trajectory, settings: RunSettings, progress) -> S
 
 @dataclass(frozen=True)
 class Truth:
-    """What every cloud of a scene is scored against: the mesh, the samples and which of them
-    are observable along the drive."""
+    """What every cloud of a scene is scored against: the mesh, the samples, which of them
+    are observable along the drive (S,) and which of those the sonar's field of view covers
+    (O,) (module docstring)."""
 
     mesh: object
     samples: object
     observable: np.ndarray
+    in_view: np.ndarray
 
 
 def thinned(points, seed: int) -> np.ndarray:
@@ -275,13 +284,20 @@ def score(points, truth: Truth, seed: int) -> tuple[float, float, int]:
     return accuracy, completeness(cloud, truth), len(cloud)
 
 
-def scene_truth(scene, trajectory, settings: RunSettings) -> Truth:
+def scene_truth(scene, trajectory, config, settings: RunSettings) -> Truth:
+    """The scene's :class:`Truth` along the drive, the sonar's view from ``config``'s field of
+    view and range."""
     mesh = scene_mesh(scene)
     samples = sample_surface(mesh, settings.spacing, settings.seed)
     driven = trajectory.driven(settings.duration)
     views = sensor_poses(trajectory.poses_at(np.arange(0.0, driven + 1e-9, VIEW_PERIOD)))
-    return Truth(mesh, samples, visible_from(scene, samples.points,
-                                             np.array([p.translation for p in views])))
+    observable = visible_from(scene, samples.points, np.array([p.translation for p in views]))
+    geometry = config.geometry
+    in_view = in_sensor_view(
+        scene, samples.points[observable],
+        sensor_poses(trajectory.poses_at(np.arange(0.0, driven + 1e-9, IN_VIEW_PERIOD))),
+        geometry.fov_horizontal, geometry.fov_vertical, config.max_range)
+    return Truth(mesh, samples, observable, in_view)
 
 
 def lidar_completeness(scene, trajectory, truth: Truth, settings: RunSettings, bar) -> float:
@@ -307,11 +323,12 @@ def run_scene(name: str, presets, scans, settings: RunSettings) -> list[dict]:
         sonars = {preset: sonar_for(path, preset, settings) for preset in presets}
         scene = next(iter(sonars.values())).scene
         bar.set_description(f"{name}: ground truth")
-        truth = scene_truth(scene, trajectory, settings)
+        truth = scene_truth(scene, trajectory, next(iter(sonars.values())).config, settings)
+        in_view = float(np.mean(truth.in_view))
         bar.set_description(f"{name}: VLP-16 at 10 Hz")
         lidar = lidar_completeness(scene, trajectory, truth, settings, bar)
-        print(f"{name}: VLP-16 completeness within 5 cm {100 * lidar:.1f} % "
-              f"({driven:.1f} s driven)", file=sys.stderr)
+        print(f"{name}: VLP-16 completeness within 5 cm {100 * lidar:.1f} %, in the sonar's "
+              f"view {100 * in_view:.1f} % ({driven:.1f} s driven)", file=sys.stderr)
         for preset, sonar in sonars.items():
             for scan in scans:
                 bar.set_description(f"{name} {preset}: {scan} (stride {settings.stride})")
@@ -344,6 +361,7 @@ def run_scene(name: str, presets, scans, settings: RunSettings) -> list[dict]:
                         "completeness_5cm_half_pct": 100 * half,
                         "vlp16_completeness_5cm_pct": 100 * lidar,
                         "completeness_vs_vlp16": covered / lidar,
+                        "sonar_in_view_pct": 100 * in_view,
                         "points": len(points), "thinned_points": kept,
                         "frames_simulated": sim.frames_simulated,
                         "frames_total": sim.frames_total, "stride": settings.stride,
@@ -359,13 +377,15 @@ def run_scene(name: str, presets, scans, settings: RunSettings) -> list[dict]:
 def markdown(rows) -> list[str]:
     """The chart as a Markdown table (fractions in %)."""
     md = ["| scene | preset | strategy | frames/s | frames simulated | points/frame | points/s | "
-          "x today | within 2 cm % | completeness 5 cm % | VLP-16 5 cm % | sim s/frame |",
-          "|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
+          "x today | within 2 cm % | completeness 5 cm % | VLP-16 5 cm % | in sonar's view % | "
+          "sim s/frame |",
+          "|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
     md += [f"| {r['scene']} | {r['preset']} | {r['strategy']} | {r['frame_rate_hz']:.2f} | "
            f"{r['frames_simulated']} of {r['frames_total']} | {r['points_per_frame']:.1f} | "
            f"{r['points_per_s']:.0f} | {r['points_per_s_vs_today']:.2f} | "
            f"{r['accuracy_pct']:.1f} | {r['completeness_5cm_pct']:.1f} | "
-           f"{r['vlp16_completeness_5cm_pct']:.1f} | {r['sim_seconds_per_frame']:.2f} |"
+           f"{r['vlp16_completeness_5cm_pct']:.1f} | {r['sonar_in_view_pct']:.1f} | "
+           f"{r['sim_seconds_per_frame']:.2f} |"
            for r in rows]
     return md
 
@@ -375,7 +395,7 @@ def save_figure(path: Path, rows) -> None:
     ``COMPLETENESS_FLOOR`` drawn at it), a column per scene, a colour per preset (the physical
     ones open); issue 28's references dotted and goals dashed in each preset's colour (the
     physical default's and broadband's coincide), the VLP-16's completeness and half of it (the
-    goal) in black."""
+    goal) in black, the share in the sonar's field of view (the ceiling) in grey."""
     plt = _pyplot()
     scenes = list(dict.fromkeys(r["scene"] for r in rows))
     presets = list(dict.fromkeys(r["preset"] for r in rows))
@@ -393,6 +413,9 @@ def save_figure(path: Path, rows) -> None:
         lidar = mine[0]["vlp16_completeness_5cm_pct"]
         bottom.axhline(lidar, color="k", lw=1.2, label=f"VLP-16 at 10 Hz ({lidar:.1f} %)")
         bottom.axhline(lidar / 2, color="k", lw=1, ls=":", label="half the VLP-16's (goal)")
+        in_view = mine[0]["sonar_in_view_pct"]
+        bottom.axhline(in_view, color="grey", lw=1.2, ls="-.",
+                       label=f"in the sonar's field of view ({in_view:.1f} %, its ceiling)")
         for preset in presets:
             colour, today = COLOURS[preset], TODAY_POINTS_PER_S[preset]
             times, accuracy = GOALS[preset]

@@ -11,6 +11,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from mitsonar.evaluation.metrics import visible_from
+from mitsonar.frames import Pose
+from mitsonar.physics.beampattern import in_fov
 from mitsonar.plots import _pyplot, save_png
 from mitsonar.sensors.trajectory import Trajectory
 from mitsonar.validation import check_positive
@@ -33,6 +36,24 @@ def covered_fraction(points, sample_points, threshold: float) -> float:
         return 0.0
     gap, _ = cKDTree(p).query(s, distance_upper_bound=threshold)
     return float(np.mean(gap <= threshold))
+
+
+def in_sensor_view(scene, points, poses: list[Pose], fov_horizontal: float, fov_vertical: float,
+                   max_range: float) -> np.ndarray:
+    """(M,) True where a surface point (M, 3) [m] lies, at one or more of the world-from-sensor
+    ``poses`` at least, inside the sensor's ``fov_horizontal`` x ``fov_vertical`` [rad] field of
+    view, within ``max_range`` [m] and in its line of sight
+    (:func:`~mitsonar.evaluation.metrics.visible_from`): what a sensor with that field of view
+    could map from those poses, an upper bound of its completeness."""
+    p = np.asarray(points, dtype=float).reshape(-1, 3)
+    seen = np.zeros(len(p), dtype=bool)
+    for pose in poses:  # one vectorised batch of sight lines per pose
+        todo = np.flatnonzero(~seen)
+        local = pose.inverse().transform_points(p[todo])  # sensor frame
+        todo = todo[in_fov(local, fov_horizontal, fov_vertical)]
+        if len(todo):  # within range: visible_from's test
+            seen[todo] = visible_from(scene, p[todo], pose.translation[None], max_range)
+    return seen
 
 
 def distance_driven(trajectory: Trajectory, times) -> np.ndarray:

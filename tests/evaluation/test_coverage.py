@@ -5,7 +5,7 @@ import pytest
 
 import mitsonar
 from mitsonar.evaluation.coverage import (Curve, covered_fraction, distance_driven,
-                                          save_completeness_figure)
+                                          in_sensor_view, save_completeness_figure)
 from mitsonar.evaluation.metrics import evaluate, sample_surface
 from mitsonar.evaluation.topviews import Panel, SceneView, save_top_views
 from mitsonar.scene.mesh import scene_mesh
@@ -25,6 +25,33 @@ def test_covered_fraction_is_the_metrics_completeness(scene_file):
     assert covered_fraction(half, samples.points, 0.005) == 0.0  # 1 cm off: beyond 5 mm
     assert covered_fraction(np.zeros((0, 3)), samples.points, 0.02) == 0.0
     assert np.isnan(covered_fraction(half, np.zeros((0, 3)), 0.02))
+
+
+def test_in_sensor_view_is_the_field_of_view_in_range_and_in_sight(scene_file):
+    """A sensor 1 m above a floor looking straight down sees the floor's points whose field-of-
+    view angles lie within 30 x 20 deg (|x| <= tan 30 deg, |y| <= tan 20 deg), within its range,
+    not hidden by a plate 0.5 m below it; a second pose adds its own."""
+    path = scene_file("floor", material_xml("m", preset="concrete"),
+                      rectangle_xml("m", (0, 0, 0), size=(4.0, 2.0), shape_id="floor"),
+                      rectangle_xml("m", (0.3, 0, 0.5), size=(0.1, 0.1), shape_id="plate"))
+    scene = mitsonar.load_scene(path)
+    samples = sample_surface(scene_mesh(scene), spacing=0.02)
+    floor = np.abs(samples.points[:, 2]) < 1e-6
+    x, y = samples.points[floor, :2].T
+    down = np.diag([1.0, -1.0, -1.0])  # sensor x along world x, its z (forward) down
+    fov = (np.radians(60.0), np.radians(40.0))
+    seen = in_sensor_view(scene, samples.points, [mitsonar.Pose(down, [0, 0, 1.0])], *fov, 5.0)
+    inside = (np.abs(x) <= np.tan(np.radians(30.0))) & (np.abs(y) <= np.tan(np.radians(20.0)))
+    hidden = (np.abs(x - 0.6) < 0.09) & (np.abs(y) < 0.09)  # the plate's shadow, 0.2 x 0.2 m
+    clear = ~((np.abs(x - 0.6) < 0.11) & (np.abs(y) < 0.11))
+    assert np.all(seen[floor][clear] == inside[clear])
+    assert not seen[floor][hidden].any() and hidden.any()
+    near = in_sensor_view(scene, samples.points, [mitsonar.Pose(down, [0, 0, 1.0])], *fov, 1.1)
+    np.testing.assert_array_equal(near[floor], seen[floor] & (x ** 2 + y ** 2 + 1 <= 1.21))
+    two = in_sensor_view(scene, samples.points, [mitsonar.Pose(down, [0, 0, 1.0]),
+                                                 mitsonar.Pose(down, [-1.5, 0, 1.0])], *fov, 5.0)
+    assert np.all(two[floor][clear] == (inside | ((np.abs(x + 1.5) <= np.tan(np.radians(30.0)))
+                                                  & (np.abs(y) <= np.tan(np.radians(20.0)))))[clear])
 
 
 def test_distance_driven_counts_driving_not_turning():
