@@ -90,7 +90,7 @@ from mitsonar.signal.receiver import EchoProcessor
 
 if str(Path(__file__).resolve().parent) not in sys.path:  # the comparison's definitions
     sys.path.append(str(Path(__file__).resolve().parent))
-from comparison import THIN_VOXEL, VIEW_PERIOD  # noqa: E402
+from comparison import IN_VIEW_PERIOD, THIN_VOXEL, VIEW_PERIOD  # noqa: E402
 
 SCENES = Path(__file__).resolve().parents[1] / "scenes"
 SCENE_NAMES = ("office", "workshop")
@@ -118,8 +118,6 @@ TODAY_POINTS_PER_S = {"paper": 208.0, "default": 115.0, "broadband": 115.0}
 GOALS = {"paper": (10.0, 0.90), "default": (3.0, 0.70), "broadband": (3.0, 0.70)}
 #: Marker colour per preset (the physical ones drawn open).
 COLOURS = {"paper": "C0", "default": "C1", "broadband": "C2"}
-#: Poses along the drive from which the sonar's view is taken [s] (about its frame period).
-IN_VIEW_PERIOD = 0.2
 #: Completeness [%] below which the figure draws it at this value (log scale).
 COMPLETENESS_FLOOR = 0.1
 MARKERS = {"sequential_first": "s", "sequential_all": "D", "sequential_cells": "P",

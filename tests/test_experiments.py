@@ -72,7 +72,8 @@ def test_speed_accuracy_quick(tmp_path):
 @pytest.mark.slow
 def test_comparison_quick(tmp_path):
     """Every sensor reconstructs both scenes, the sonar with both presets; only the sonar puts
-    points on room_glass's windows; completeness is measured along the drive."""
+    points on room_glass's windows; completeness is measured along the drive, the sonar's
+    field of view bounding its repeated map's."""
     run_experiment("comparison", "--quick", "--out", str(tmp_path))
     rows = {(r["scene"], r["sensor"], r["preset"]): r
             for r in csv.DictReader((tmp_path / "comparison.csv").open())}
@@ -90,6 +91,9 @@ def test_comparison_quick(tmp_path):
                                    f".ply").stat().st_size > 0
         if scene == "workshop":  # no glass: nothing to score
             assert np.isnan(float(r["glass_completeness_pct"])) and int(r["glass_points"]) == 0
+            if key == "sonar":  # repeated mode maps what its field of view covers, no more
+                assert float(r["completeness_pct"]) <= float(r["sonar_in_view_pct"]) + 1.0
+        assert 0.0 < float(r["sonar_in_view_pct"]) < 100.0
     for key in ("lidar", "depth_camera"):  # they look through the windows
         r = rows["room_glass", key, ""]
         assert int(r["glass_points"]) <= 0.001 * int(r["points"])
@@ -137,10 +141,10 @@ def test_comparison_scores_every_sensor_alike(scene_file):
                              1.0, truth)
             for key, mode, preset in (("sonar", "surfel", "paper"), ("sonar", "repeated", "default"),
                                       ("lidar", "", ""), ("depth_camera", "", ""))]
-    info = {"driven": 1.0}
+    info = {"driven": 1.0, "sonar_in_view": 0.25}
     rows = [comparison.summary_row("plane", info, r, recs[2]) for r in recs]
     for r, row in zip(recs, rows):
-        assert set(ISSUE_COLUMNS) <= set(row)
+        assert set(ISSUE_COLUMNS) <= set(row) and row["sonar_in_view_pct"] == 25.0
         assert row["accuracy_pct"] == 100.0 and row["completeness_pct"] == 100.0
         assert row["completeness_voxel_pct"] == rows[0]["completeness_voxel_pct"] > 99.0
         np.testing.assert_allclose(r.curve.completeness, [r.curve.completeness[0], 1.0])
