@@ -3,6 +3,7 @@ panel per reconstruction, points coloured by their distance to the ground truth.
 
 from __future__ import annotations
 
+import textwrap
 from dataclasses import dataclass
 
 import numpy as np
@@ -14,6 +15,8 @@ FLOOR_MARGIN = 0.15
 CEILING_MARGIN = 0.3
 #: Colour scale of the distances is clipped here [m].
 ERROR_CLIP = 0.10
+#: Characters of the 10 pt title per inch of figure width (wrapped to fit).
+TITLE_CHARS_PER_INCH = 13
 
 
 @dataclass(frozen=True)
@@ -79,8 +82,9 @@ def save_top_views(path, rows: dict, title: str, max_points: int = 80_000) -> No
                         bbox=dict(facecolor="white", alpha=0.8, edgecolor="firebrick", lw=0.5))
         for ax in row[len(panels):]:
             ax.set_visible(False)
-    fig.suptitle(title, fontsize=10)
-    fig.tight_layout(rect=(0, 1.2 / height, 1, 1 - 0.3 / height))
+    lines = textwrap.wrap(title, width=int(TITLE_CHARS_PER_INCH * 4.6 * cols))  # fits the width
+    fig.suptitle("\n".join(lines), fontsize=10)
+    fig.tight_layout(rect=(0, 1.2 / height, 1, 1 - 0.3 * len(lines) / height))
     if im is not None:
         bar = fig.add_axes((0.25, 0.75 / height, 0.5, 0.1 / height))
         fig.colorbar(im, cax=bar, orientation="horizontal",
