@@ -30,8 +30,9 @@ frames as they come). Completeness counts the ground-truth samples in line of si
 sensor head at least once a second along the drive (glass occludes), the same for all sensors;
 ``sonar_in_view_pct`` is the share of it that the sonar's 60 x 40 deg field of view covers within
 its range and line of sight from poses 0.2 s apart
-(:func:`~mitsonar.evaluation.coverage.in_sensor_view`), which no sonar map can exceed. Beside it, at the voxel map's resolution: every sensor's thinned cloud is voxelised at 5 cm (the
-mean of each voxel's points, :func:`voxel_means`, which leaves the repeated map as it is) and
+(:func:`~mitsonar.evaluation.coverage.in_view_along`), which no sonar map can exceed. Beside it,
+at the voxel map's resolution: every sensor's thinned cloud is voxelised at 5 cm (the mean of
+each voxel's points, :func:`voxel_means`, which leaves the repeated map as it is) and
 scored at 5 cm (``*_voxel_pct``). Glass is also scored on its own. Completeness is also measured
 at ``--checkpoints`` times along the drive (the cloud taken so far) against the distance driven.
 
@@ -58,7 +59,7 @@ import numpy as np
 
 import mitsonar
 from mitsonar.evaluation.coverage import (Curve, covered_fraction, distance_driven,
-                                          in_sensor_view, save_completeness_figure)
+                                          in_view_along, save_completeness_figure)
 from mitsonar.evaluation.metrics import (DEFAULT_THRESHOLD, Evaluation, evaluate,
                                          save_error_figure, visible_from)
 from mitsonar.evaluation.thinning import VoxelThinner, voxel_means
@@ -230,11 +231,8 @@ def run_scene(name: str, path: Path, modes, settings: RunSettings) -> tuple[list
     viewpoints = np.array([p.translation for p in sensor_poses(views)])
     truth = (mesh, samples, visible_from(scene, samples.points, viewpoints),
              distance_driven(trajectory, checkpoints))
-    config = mitsonar.SonarConfig()  # every preset's field of view and range
-    in_view = in_sensor_view(
-        scene, samples.points[truth[2]],
-        sensor_poses(trajectory.poses_at(np.arange(0.0, driven + 1e-9, IN_VIEW_PERIOD))),
-        config.geometry.fov_horizontal, config.geometry.fov_vertical, config.max_range)
+    in_view = in_view_along(scene, samples.points[truth[2]], trajectory, driven,
+                            mitsonar.SonarConfig(), IN_VIEW_PERIOD)  # every preset's view
     recs = []
     for mode in modes:
         for preset in settings.presets:

@@ -41,7 +41,7 @@ the share of the observable ground-truth samples (1 cm apart, in line of sight o
 head at least once a second along the drive) with a point within 5 cm; ``sonar_in_view_pct``
 the share of those the sonar's field of view covers, within its range and line of sight, from
 one pose or more every :data:`IN_VIEW_PERIOD` along the drive
-(:func:`~mitsonar.evaluation.coverage.in_sensor_view`): no sonar strategy's completeness can
+(:func:`~mitsonar.evaluation.coverage.in_view_along`): no sonar strategy's completeness can
 exceed it. The VLP-16 (10 Hz,
 each column fired at its own time, :func:`mitsonar.sensors.baselines.sweep`) drives the same
 path, whole, and is scored the same way.
@@ -75,7 +75,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 import mitsonar
-from mitsonar.evaluation.coverage import in_sensor_view
+from mitsonar.evaluation.coverage import in_view_along
 from mitsonar.evaluation.metrics import point_to_mesh, sample_surface, visible_from
 from mitsonar.evaluation.thinning import VoxelThinner
 from mitsonar.io import write_table
@@ -290,12 +290,8 @@ def scene_truth(scene, trajectory, config, settings: RunSettings) -> Truth:
     driven = trajectory.driven(settings.duration)
     views = sensor_poses(trajectory.poses_at(np.arange(0.0, driven + 1e-9, VIEW_PERIOD)))
     observable = visible_from(scene, samples.points, np.array([p.translation for p in views]))
-    geometry = config.geometry
-    in_view = in_sensor_view(
-        scene, samples.points[observable],
-        sensor_poses(trajectory.poses_at(np.arange(0.0, driven + 1e-9, IN_VIEW_PERIOD))),
-        geometry.fov_horizontal, geometry.fov_vertical, config.max_range)
-    return Truth(mesh, samples, observable, in_view)
+    return Truth(mesh, samples, observable, in_view_along(
+        scene, samples.points[observable], trajectory, driven, config, IN_VIEW_PERIOD))
 
 
 def lidar_completeness(scene, trajectory, truth: Truth, settings: RunSettings, bar) -> float:
@@ -319,9 +315,10 @@ def run_scene(name: str, presets, scans, settings: RunSettings) -> list[dict]:
     rows = []
     with tqdm(desc=f"{name}", unit="frame", file=sys.stderr) as bar:
         sonars = {preset: sonar_for(path, preset, settings) for preset in presets}
-        scene = next(iter(sonars.values())).scene
+        first = next(iter(sonars.values()))  # every preset's scene, field of view and range
+        scene = first.scene
         bar.set_description(f"{name}: ground truth")
-        truth = scene_truth(scene, trajectory, next(iter(sonars.values())).config, settings)
+        truth = scene_truth(scene, trajectory, first.config, settings)
         in_view = float(np.mean(truth.in_view))
         bar.set_description(f"{name}: VLP-16 at 10 Hz")
         lidar = lidar_completeness(scene, trajectory, truth, settings, bar)

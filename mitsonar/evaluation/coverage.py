@@ -56,6 +56,20 @@ def in_sensor_view(scene, points, poses: list[Pose], fov_horizontal: float, fov_
     return seen
 
 
+def in_view_along(scene, points, trajectory: Trajectory, driven: float, config,
+                  period: float) -> np.ndarray:
+    """:func:`in_sensor_view` of the sonar ``config`` (a ``SonarConfig``: its field of view and
+    ``max_range``) from the sensor head's poses ``period`` [s] apart over the first ``driven``
+    [s] of ``trajectory``: (M,) bool per surface point (M, 3) [m]."""
+    from mitsonar.sensors.trajectory import sensor_poses
+
+    check_positive("period [s]", period)
+    poses = sensor_poses(trajectory.poses_at(np.arange(0.0, driven + 1e-9, period)))
+    geometry = config.geometry
+    return in_sensor_view(scene, points, poses, geometry.fov_horizontal, geometry.fov_vertical,
+                          config.max_range)
+
+
 def distance_driven(trajectory: Trajectory, times) -> np.ndarray:
     """Path length of the robot's chassis [m] from the trajectory's start to each of ``times``
     (K,) [s] (turns on the spot add nothing), measured on poses ``DISTANCE_STEP`` apart."""
