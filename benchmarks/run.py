@@ -203,15 +203,17 @@ def main(argv=None) -> int:
                 profiled += profile(lambda: ofdm.frame(schedule, lambda t: pose,
                                                        channels=channels),
                                     len(schedule.directions), 1, "frames/s")
-        fast, full = (OfdmSonar(mitsonar.Sonar(sonar.scene, replace(config, noise_rms=0.0, **rate)))
-                      for rate in ({}, FULL_RATE))
+        fast, full = (OfdmSonar(mitsonar.Sonar(sonar.scene, replace(config, noise_rms=0.0, **rate)),
+                                shared_hits=False) for rate in ({}, FULL_RATE))
         per_beam = fast.frame(schedule, lambda t: pose).depth
         report_depths(per_beam, full.frame(schedule, lambda t: pose).depth)
         report_depths(fast.frame(schedule, lambda t: pose, channels=False).depth, per_beam,
                       "per-channel path")
-        shared = OfdmSonar(fast.sonar, shared_hits=True)
-        report_depths(shared.frame(schedule, lambda t: pose).depth, per_beam,
-                      "per-beam trace (shared hits)")
+        shared, shared_full = (OfdmSonar(o.sonar, shared_hits=True) for o in (fast, full))
+        shared_depth = shared.frame(schedule, lambda t: pose).depth
+        report_depths(shared_depth, shared_full.frame(schedule, lambda t: pose).depth,
+                      "full-rate reference, shared hits")
+        report_depths(shared_depth, per_beam, "per-beam trace (shared hits)")
 
     # Echo modes (issue 28): what keeping every echo, every range cell or a cone image per beam
     # costs per detection-only frame beside the first echo; and one single-ping receive image.

@@ -69,6 +69,9 @@ class RepeatedMapSpec:
         off_beam: re-place echoes that the side-lobe check rejects where they arrive from
             (``DetectionSettings.off_beam``; module docstring); None: on where ``echoes`` and
             the sonar's side-lobe check and arrival directions allow it ("first", "all").
+        shared_hits: trace each OFDM cycle's hits once over the union of its beams' cones,
+            every beam with its transmit side lobes over that union (the default); False: each beam traced
+            in its own 20 deg cone (``OfdmSonar``'s ``shared_hits``, docs/performance.md).
         seed: seeds every frame's noise and diffuse phases.
     """
 
@@ -82,6 +85,7 @@ class RepeatedMapSpec:
     registration: str = "beam"
     echoes: str = "first"
     off_beam: bool | None = None
+    shared_hits: bool = True
     seed: int = 0
 
     def __post_init__(self):
@@ -132,7 +136,8 @@ def scan_repeated(sonar: Sonar, trajectory: Trajectory, spec: RepeatedMapSpec = 
     ``spec.duration`` [s] (default: the whole trajectory). ``progress`` is called with (frame
     index, number of frames) after each."""
     detection = spec.detection(sonar.config.detection)
-    ofdm = OfdmSonar(Sonar(sonar.scene, replace(sonar.config, detection=detection)))
+    ofdm = OfdmSonar(Sonar(sonar.scene, replace(sonar.config, detection=detection)),
+                     shared_hits=spec.shared_hits)
     schedule = ofdm.schedule(sonar.fov_grid(spec.scan_step))
     interval = schedule.frame_duration if spec.interval is None else spec.interval
     if interval < schedule.frame_duration:

@@ -17,13 +17,17 @@ which forms the beams and reads the channels at the candidates' instants from th
 does from the recordings' spectra. Without noise they differ only in the recording's end
 (echoes cut there) and its single-precision samples: the same decisions, depths within 3e-5 mm
 on room_glass. With noise, each path draws its own realisation, of the same statistics.
-Shared hits (``OfdmSonar(..., shared_hits=True)``): a cycle's hits depend on the pose and the
+Shared hits (the default; ``OfdmSonar(..., shared_hits=False)`` traces every beam in its own
+cone instead): a cycle's hits depend on the pose and the
 scene, not on the steering, so the union of its beams' cones is traced once, the element factors
 computed once per pose group, and every element pair gridded once; each transmit element is
 driven by the sum of the cycle's codes with their steering delays and firing times
 (:meth:`~mitsonar.signal.synthesis.EchoSynthesizer.element_spectrum`). Every beam then carries
-its whole transmit pattern, side lobes beyond its own 20 deg cone included, which changes
-decisions on diffuse walls: so the per-beam path stays the default (docs/performance.md).
+its transmit pattern over the union of the cycle's cones, side lobes beyond its own 20 deg
+cone included: a smooth wall's
+mirror echo reaches every beam of the cycle through them and hides the diffuse echoes of walls
+seen obliquely, so the physical model detects far fewer beams than with per-beam cones
+(docs/performance.md).
 Forming the beams before gridding (a path per hit and beam) would not save work in a frame: a
 cycle fires up to 25 beams into one recording, as many beams as receive channels, so the grids
 and transforms keep their size.
@@ -109,14 +113,11 @@ class OfdmSonar:
         codes: code set (default: the paper's 25).
         listen: listening time after each cycle [s].
         shared_hits: trace each cycle's hits once and synthesise its recording once from the
-            transmit elements' drives (module docstring); False: trace and synthesise every
-            beam in its own cone (the reference; also whenever the tracer cannot share hits,
+            transmit elements' drives (the default; module docstring); False: trace and
+            synthesise every beam in its own 20 deg cone, without its transmit side lobes
+            beyond it (the reference; also whenever the tracer cannot share hits,
             :meth:`AcousticTracer.shares_hits <mitsonar.trace.tracer.AcousticTracer.shares_hits>`,
-            and for the cross-talk measurement). Not the default: tracing the whole union
-            brings every beam's transmit side lobes beyond its 20 deg cone, which changes
-            decisions on diffuse walls (docs/performance.md); and behind narrow-band
-            transducers it does not gain (the per-beam path merges each beam's steered transmit
-            elements, which elements driven by a sum of codes cannot).
+            e.g. the paper's point reflectors, and for the cross-talk measurement).
         pose_tolerance: (distance [m], angle [rad]) within which beams fired from moving poses
             are simulated from their pose group's.
         retrace_tolerance: (distance [m], angle [rad]) within which a pose group reuses hits
@@ -124,7 +125,7 @@ class OfdmSonar:
     """
 
     def __init__(self, sonar: Sonar, codes=None, listen: float = PAPER_LISTEN,
-                 shared_hits: bool = False, pose_tolerance=POSE_TOLERANCE,
+                 shared_hits: bool = True, pose_tolerance=POSE_TOLERANCE,
                  retrace_tolerance=RETRACE_TOLERANCE):
         self.pose_tolerance = _tolerance("pose_tolerance", pose_tolerance)
         self.retrace_tolerance = _tolerance("retrace_tolerance", retrace_tolerance)

@@ -17,8 +17,10 @@ WALL_X, WALL_Z = 2.4, 0.5
 def _wall_frame(tmp_path, tilt_deg: float, echoes: str, broadband: bool, off_beam=None):
     """One OFDM frame (10 deg beam grid, 35 beams) of the physical default sonar (TCT40, or
     20 kHz broadband transducers) at the start of a path towards a 8 m drywall wall WALL_X
-    ahead, turned ``tilt_deg`` about the lateral axis. Returns the frame and the distances [m]
-    of its echoes' world points to the wall."""
+    ahead, turned ``tilt_deg`` about the lateral axis, each beam traced in its own cone (with
+    shared hits, the mirror echo heard through every beam's side lobes hides all but the beam
+    facing the wall: one detection, nothing to re-place). Returns the frame and the distances
+    [m] of its echoes' world points to the wall."""
     path = write_scene(tmp_path / f"wall{tilt_deg}.xml", material_xml("w", preset="drywall"),
                        rectangle_xml("w", (WALL_X, 0.0, WALL_Z), (0, -90 + tilt_deg, 0),
                                      size=(8.0, 8.0)),
@@ -28,7 +30,7 @@ def _wall_frame(tmp_path, tilt_deg: float, echoes: str, broadband: bool, off_bea
         config = replace(config, transducer=mitsonar.Transducer(bandwidth_6db=20e3))
     trajectory = mitsonar.Trajectory(np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]]), speed=0.05)
     spec = RepeatedMapSpec(frames=1, scan_step=np.radians(10.0), image_width=32, spp=1,
-                           echoes=echoes, off_beam=off_beam)
+                           echoes=echoes, off_beam=off_beam, shared_hits=False)
     frame = scan_repeated(mitsonar.Sonar(path, config), trajectory, spec)[0][0].frame
     tilt = np.radians(tilt_deg)
     normal = np.array([np.cos(tilt), 0.0, -np.sin(tilt)])

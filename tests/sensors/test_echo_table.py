@@ -64,11 +64,12 @@ def test_a_frame_carries_every_echo_with_its_beams_pose(sphere_before_wall, mode
     """An OFDM frame fired while the sensor moves towards the wall at 0.5 m/s: each echo's pose
     is its beam's firing pose, and its world point that pose's transform of its sensor-frame
     point. With echoes = "first" the table is the detected beams; with "all" the sphere's beam
-    has two."""
+    has two (each beam traced in its own cone; with shared hits the wall's mirror echo, heard
+    through the side lobes, adds echoes)."""
     path, directions = sphere_before_wall
     sonar = mitsonar.Sonar(path, mitsonar.SonarConfig(
         transducer=BROADBAND, detection=mitsonar.DetectionSettings(echoes=mode)))
-    ofdm = OfdmSonar(sonar)
+    ofdm = OfdmSonar(sonar, shared_hits=False)
     frame = ofdm.frame(ofdm.schedule(directions),
                        lambda t: mitsonar.Pose(np.eye(3), [0.0, 0.0, 0.5 * t]), seed=1)
     table = frame.echo_table
