@@ -70,8 +70,9 @@ class RepeatedMapSpec:
             (``DetectionSettings.off_beam``; module docstring); None: on where ``echoes`` and
             the sonar's side-lobe check and arrival directions allow it ("first", "all").
         shared_hits: trace each OFDM cycle's hits once over the union of its beams' cones,
-            every beam with its transmit side lobes over that union (the default); False: each beam traced
-            in its own 20 deg cone (``OfdmSonar``'s ``shared_hits``, docs/performance.md).
+            every beam with its transmit side lobes over that union (the default); False: each
+            beam traced in its own 20 deg cone (``OfdmSonar``'s ``shared_hits``,
+            docs/performance.md).
         seed: seeds every frame's noise and diffuse phases.
     """
 

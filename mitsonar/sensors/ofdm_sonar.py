@@ -18,16 +18,15 @@ does from the recordings' spectra. Without noise they differ only in the recordi
 (echoes cut there) and its single-precision samples: the same decisions, depths within 3e-5 mm
 on room_glass. With noise, each path draws its own realisation, of the same statistics.
 Shared hits (the default; ``OfdmSonar(..., shared_hits=False)`` traces every beam in its own
-cone instead): a cycle's hits depend on the pose and the
-scene, not on the steering, so the union of its beams' cones is traced once, the element factors
-computed once per pose group, and every element pair gridded once; each transmit element is
-driven by the sum of the cycle's codes with their steering delays and firing times
+cone instead): a cycle's hits depend on the pose and the scene, not on the steering, so the
+union of its beams' cones is traced once, the element factors computed once per pose group, and
+every element pair gridded once; each transmit element is driven by the sum of the cycle's
+codes with their steering delays and firing times
 (:meth:`~mitsonar.signal.synthesis.EchoSynthesizer.element_spectrum`). Every beam then carries
-its transmit pattern over the union of the cycle's cones, side lobes beyond its own 20 deg
-cone included: a smooth wall's
-mirror echo reaches every beam of the cycle through them and hides the diffuse echoes of walls
-seen obliquely, so the physical model detects far fewer beams than with per-beam cones
-(docs/performance.md).
+its transmit pattern over the union of the cycle's cones, side lobes beyond its own 20 deg cone
+included: a smooth wall's mirror echo reaches every beam of the cycle through them and hides
+the diffuse echoes of walls seen obliquely, so the physical model detects far fewer beams than
+with per-beam cones (docs/performance.md).
 Forming the beams before gridding (a path per hit and beam) would not save work in a frame: a
 cycle fires up to 25 beams into one recording, as many beams as receive channels, so the grids
 and transforms keep their size.

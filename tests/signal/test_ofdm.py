@@ -112,9 +112,9 @@ def test_wall_at_rest_has_the_same_depth_from_ofdm_frames_as_from_single_beam_pi
     sonar = mitsonar.Sonar(scene_file("wall", material_xml("w", preset="concrete"),
                                       rectangle_xml("w", (0, 0, 2.0))), config)
     directions = sonar.fov_grid(np.radians(10.0))
-    frames = {shared: OfdmSonar(sonar, shared_hits=shared) for shared in (False, True)}
-    frame, side_lobes = (ofdm.frame(ofdm.schedule(directions), lambda t: IDENTITY)
-                         for ofdm in frames.values())
+    schedule = OfdmSonar(sonar).schedule(directions)
+    frame, side_lobes = (OfdmSonar(sonar, shared_hits=shared).frame(schedule, lambda t: IDENTITY)
+                         for shared in (False, True))
     scan = sonar.scan(IDENTITY, directions)
     ofdm_points = frame.points_sensor[frame.detected]
     single_points = scan.points_sensor[scan.detected]
