@@ -190,12 +190,13 @@ def _folded(padded: np.ndarray, scale: float, n_grid: int, origin: int,
     modulo n_grid, added onto the period in contiguous pieces (at most a few)."""
     if grid is None:
         grid = np.zeros((len(padded), n_grid), dtype=np.complex64)
+    values = padded.astype(np.float32).view(np.complex64)[..., 0]  # (re, im) pairs as complex
+    values *= np.float32(1.0 / scale)  # a power of two: exact
     column = 0
-    while column < padded.shape[1]:
+    while column < values.shape[1]:
         first = (origin + column) % n_grid
-        n = min(padded.shape[1] - column, n_grid - first)
-        piece = padded[:, column:column + n]
-        grid[:, first:first + n] += (piece[..., 0] + 1j * piece[..., 1]) * (1.0 / scale)
+        n = min(values.shape[1] - column, n_grid - first)
+        grid[:, first:first + n] += values[:, column:column + n]
         column += n
     return grid
 
@@ -415,7 +416,7 @@ class EchoSynthesizer:
             start = np.zeros(len(sets), np.int64)
             start[members] = np.cumsum(size[members]) - size[members]
             mine = np.flatnonzero(np.isin(owner, members))
-            part = paths.select(mine)
+            part = paths if mine.size == owner.size else paths.select(mine)
             tx, rx = part.kernel_factors()
             total = int(size[members].sum())
             thread = to_jit(UInt32, np.arange(mine.size * n_rx, dtype=np.uint32))
