@@ -15,7 +15,8 @@ it was measured from (no odometry drift):
 * OFDM: frames of the 117 coded beams back to back (208.5 ms each, 25 codes per cycle; each beam
   from its own pose, :class:`~mitsonar.sensors.ofdm_sonar.OfdmSonar`).
 * imaging: single-ping receive images (:class:`~mitsonar.sensors.imaging_sonar.ImagingSonar`,
-  one transmit element), one per listening cycle (30.4 / 34.0 ms).
+  one transmit element), one per listening cycle (30.4 / 34.0 ms); the same images also at the
+  trust thresholds of :data:`IMAGING_TRUST` (``imaging_trust_<threshold>``).
 * ofdm_trusted: the same OFDM frames (poses and seeds), every echo and range cell trusted by
   their arrival directions alone: no side-lobe check along the beam axis, one plane wave from
   the measured direction explaining ``min_coherence`` of the channels' power (the check's
@@ -86,6 +87,7 @@ from mitsonar.sensors.imaging_sonar import ImagingSonar, TransmitSettings
 from mitsonar.sensors.ofdm_sonar import OfdmSonar, pose_along
 from mitsonar.sensors.sonar import beam_seed
 from mitsonar.sensors.trajectory import sensor_poses
+from mitsonar.signal.imaging import ImagingSettings
 from mitsonar.signal.receiver import EchoProcessor
 
 if str(Path(__file__).resolve().parent) not in sys.path:  # the comparison's definitions
@@ -108,6 +110,10 @@ DECODINGS = {"ofdm_trusted": dict(echoes="cells", ghost_margin=0.0, arrival_cone
              "ofdm_image": dict(echoes="image")}
 #: What each scan of one point set reports (``echoes`` in the table).
 SINGLE_SETS = {"ofdm_trusted": "cells", "ofdm_image": "image", "imaging": "image"}
+#: Further trust thresholds of the imaging scan (``ImagingSettings.min_coherence``) beside its
+#: default: the same images, each threshold's points a strategy of its own,
+#: ``imaging_trust_<threshold>`` (points per second against accuracy along the trade-off).
+IMAGING_TRUST = (0.35, 0.5)
 #: Accuracy threshold [m] and completeness threshold [m].
 ACCURACY_THRESHOLD = 0.02
 COMPLETENESS_THRESHOLD = 0.05
@@ -123,7 +129,7 @@ COMPLETENESS_FLOOR = 0.1
 MARKERS = {"sequential_first": "s", "sequential_all": "D", "sequential_cells": "P",
            "ofdm_first": "o", "ofdm_all": "^", "ofdm_cells": "v", "ofdm_trusted": "p",
            "ofdm_image": "X",
-           "imaging": "*"}
+           "imaging": "*", "imaging_trust_0.35": "<", "imaging_trust_0.5": ">"}
 
 
 @dataclass(frozen=True)
@@ -161,6 +167,15 @@ class Simulated:
     frames_total: int
     frames_simulated: int
     seconds: float
+
+
+def imaging_trust_sets(image) -> dict:
+    """Points (N, 3) [m] of one image per imaging strategy: ``imaging`` those of the default
+    trust threshold, ``imaging_trust_<t>`` those of each threshold t of :data:`IMAGING_TRUST`
+    (the image made with the lowest of them)."""
+    default = ImagingSettings.min_coherence
+    return {"imaging" if t == default else f"imaging_trust_{t:g}":
+            image.points_world[image.coherence >= t] for t in (default,) + IMAGING_TRUST}
 
 
 def echo_sets(echoes, points_world) -> dict:
@@ -225,13 +240,14 @@ def simulate(scan: str, sonar, trajectory, settings: RunSettings, progress) -> S
                 return {scan: result.echo_points_world}
             return echo_sets(result.echo_table, result.echo_points_world)
     else:
-        imaging = ImagingSonar(sonar, transmit=TransmitSettings(
+        trust = ImagingSettings(min_coherence=min((ImagingSettings.min_coherence,)
+                                                  + IMAGING_TRUST))
+        imaging = ImagingSonar(sonar, trust, TransmitSettings(
             rays_per_axis=settings.image_rays_per_axis))
         period = imaging.cycle_time
 
         def frame(t, k):
-            image = imaging.image(pose_at(t), seed=beam_seed(settings.seed, k))
-            return {scan: image.points_world}
+            return imaging_trust_sets(imaging.image(pose_at(t), seed=beam_seed(settings.seed, k)))
     times = trajectory.times_at_rate(1.0 / period, settings.duration)
     chosen = np.arange(0, len(times), settings.stride)
     start = time.perf_counter()
@@ -339,7 +355,8 @@ def run_scene(name: str, presets, scans, settings: RunSettings) -> list[dict]:
                     accuracy, covered, kept = score(points, truth, settings.seed)
                     half = completeness(thinned(np.concatenate(frames[::2]),
                                                 settings.seed), truth)
-                    strategy = scan if scan in SINGLE_SETS else f"{scan}_{echoes}"
+                    strategy = echoes if scan == "imaging" else \
+                        scan if scan in SINGLE_SETS else f"{scan}_{echoes}"
                     echoes = SINGLE_SETS.get(scan, echoes)
                     scan_kind = scan.split("_")[0]  # ofdm_image, ofdm_trusted: OFDM frames
                     per_frame = len(points) / sim.frames_simulated

@@ -197,7 +197,7 @@ def test_shadow_lines_quick(tmp_path):
 def test_imaging_quick(tmp_path):
     """Every preset and strategy has a row; the scans run at their own rates (a sweep of B
     pings a listening time each, an OFDM frame, an image a listening time); one simulation's echo
-    sets nest (first within all within cells)."""
+    sets nest (first within all within cells), and so do the imaging trust thresholds' points."""
     import mitsonar
     from mitsonar.sensors.ofdm_sonar import OfdmSonar
 
@@ -207,7 +207,8 @@ def test_imaging_quick(tmp_path):
     rows = {(r["preset"], r["strategy"]): r
             for r in csv.DictReader((tmp_path / "imaging.csv").open())}
     strategies = [f"{scan}_{e}" for scan in ("sequential", "ofdm")
-                  for e in ("first", "all", "cells")] + ["ofdm_trusted", "ofdm_image", "imaging"]
+                  for e in ("first", "all", "cells")] + ["ofdm_trusted", "ofdm_image", "imaging",
+                                                         "imaging_trust_0.35", "imaging_trust_0.5"]
     assert set(rows) == {(p, s) for p in presets for s in strategies}
     office = mitsonar.load_scene(SCENES / "office" / "scene.xml")
     periods = {}  # the sensor's own frame time per preset and scan [s]
@@ -230,6 +231,10 @@ def test_imaging_quick(tmp_path):
             points = [int(rows[preset, f"{scan}_{e}"]["points"]) for e in ("first", "all", "cells")]
             assert points == sorted(points) and points[-1] > 0, (preset, scan, points)
     assert int(rows["paper", "ofdm_all"]["points"]) > int(rows["paper", "ofdm_first"]["points"])
+    for preset in presets:  # the same images: a stricter trust threshold keeps a subset
+        points = [int(rows[preset, s]["points"])
+                  for s in ("imaging_trust_0.35", "imaging", "imaging_trust_0.5")]
+        assert points == sorted(points, reverse=True), (preset, points)
     assert (tmp_path / "imaging.png").stat().st_size > 30_000
     assert "completeness 5 cm" in (tmp_path / "imaging.md").read_text()
 
