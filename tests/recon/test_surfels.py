@@ -341,6 +341,32 @@ def test_check_pings_stop_a_plane_where_the_sonar_refutes_it():
     assert np.all(silent.grid_plane == 0)
 
 
+def test_no_plane_is_grown_below_the_floor():
+    """A wall 2 m ahead of the robot claims the whole crop (no lines): the lower image rows'
+    rays meet its plane under the floor the robot drives on (z = 0), where the camera sees
+    nothing. Points more than ``below_floor`` (5 cm) under it are not grown, the rest of the
+    wall is; with ``below_floor=None`` the whole crop is (as before the limit: varied_9's wall
+    grown 0.97 m into the floor)."""
+    from dataclasses import replace
+
+    pose = mitsonar.Pose.sensor_on_robot(0.0, 0.0, 0.0)
+    h = pose.translation[2]
+    plane = PlaneGroups(np.zeros(1, int), np.array([[-1.0, 0.0, 0.0]]), np.array([-2.0]),
+                        np.array([[2.0, 0.0, h]]), np.array([0.01]), 1)
+    surfel = np.array([[[2.0, -0.1, h - 0.1], [2.0, 0.1, h - 0.1], [2.0, 0.0, h + 0.1],
+                        [2.0, 0.0, h]]])
+    scan = replace(_scan_stub([]), pose=pose)
+    unlimited = grow_planes(scan, np.zeros((0, 4)), plane, surfel,
+                            SurfelSettings(below_floor=None))
+    assert np.all(unlimited.grid_plane == 0)
+    z = unlimited.grid_points[..., 2]
+    assert z.min() < -0.2 and z.max() > h  # the crop reaches below the floor
+    limited = grow_planes(scan, np.zeros((0, 4)), plane, surfel)
+    grown = limited.grid_plane == 0
+    assert np.array_equal(grown, z >= -SurfelSettings().below_floor)
+    assert np.all(limited.vertices[:, 2] >= -0.05) and 0.2 < grown.mean() < 0.9
+
+
 # ---- rendered scenes -------------------------------------------------------------------------
 CREASE = np.array([2.0, 2.0, 0.0])  # where the two walls and the floor meet [m]
 SUN = ('<emitter type="directional"><vector name="direction" x="0.45" y="0.45" z="-0.77"/>'

@@ -270,6 +270,8 @@ def grow_planes(scan: PoseScan, segments, groups: PlaneGroups, surfel_points, se
         allowed &= support
     limit = np.inf if settings.max_range is None else settings.max_range
     valid = allowed & (t > 1e-6) & (dist <= limit)
+    if settings.below_floor is not None:  # nothing is seen through the floor
+        valid &= origin[2] + rays[..., 2:] * t >= -settings.below_floor
     dist = np.where(valid, dist, np.inf)
     if n_groups:
         best = np.argmin(dist, axis=-1)
