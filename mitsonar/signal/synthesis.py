@@ -41,11 +41,10 @@ from mitsonar.trace.paths import Paths
 
 
 #: The gridding kernels add into a copy of the grid per core, merged after (Dr.Jit's Expand
-#: reduction), each tap's (re, im) as one packet of two adjacent integers: measured on one
-#: beam's 4e5-1.9e6 element pairs (20 kHz transducers, 25 x 8 600 samples) 5x faster than two
-#: scatters per tap and 20x faster than atomic adds into one grid. The copies cost a grid's
-#: memory per core (3.4 MB for a broadband OFDM beam's 25 channels); Dr.Jit's CUDA backend, which
-#: has no Expand, adds atomically.
+#: reduction), each tap's (re, im) as one packet of two adjacent integers: measured on one beam's
+#: 4e5-1.9e6 element pairs (20 kHz transducers, 25 x 8 600 samples) 5x faster than two scatters
+#: per tap and 20x faster than atomic adds into one grid. The copies cost a grid's memory per
+#: core (3.4 MB for a broadband OFDM beam's 25 channels); Dr.Jit's CUDA backend adds atomically.
 GRID_REDUCE = "Expand"
 #: Drive spectra kept by a synthesizer (~1 MB each).
 DRIVES_KEPT = 64
@@ -186,12 +185,12 @@ def _fixed_point_scale(peak):
 def _folded(padded: np.ndarray, scale: float, n_grid: int, origin: int,
             grid: np.ndarray | None = None) -> np.ndarray:
     """The (n_rows, n_grid) complex64 grid (``grid``, or a new one) of a kernel's fixed-point
-    rows (n_rows, width, 2) of interleaved (re, im): column c of a row holds sample (origin + c)
-    modulo n_grid, added onto the period in contiguous pieces (at most a few)."""
+    rows (n_rows, width, 2) of interleaved (re, im) over ``scale`` (a power of two): column c holds
+    sample (origin + c) modulo n_grid, added onto the period in contiguous pieces (a few)."""
     if grid is None:
         grid = np.zeros((len(padded), n_grid), dtype=np.complex64)
     values = padded.astype(np.float32).view(np.complex64)[..., 0]  # (re, im) pairs as complex
-    values *= np.float32(1.0 / scale)  # a power of two: exact
+    values *= np.float32(1.0 / scale)
     column = 0
     while column < values.shape[1]:
         first = (origin + column) % n_grid
