@@ -449,7 +449,8 @@ def save_figure(path: Path, rows) -> None:
         top.set_title(f"{scene}: 1 frame in {mine[0]['stride']} simulated")
         top.legend(loc="lower left", fontsize=7)
         bottom.legend(loc="center left", fontsize=8)
-    handles = [plt.Line2D([], [], marker=m, ls="", color="grey", label=s.replace("_", ", "))
+    handles = [plt.Line2D([], [], marker=m, ls="", color="grey",
+                          label=s.replace("_", ", ", 1).replace("_", " "))
                for s, m in MARKERS.items()]
     handles += [plt.Line2D([], [], marker="o", ls="", color=COLOURS[p], label=p,
                            markerfacecolor=COLOURS[p] if p == "paper" else "none")
