@@ -355,8 +355,8 @@ def run_scene(name: str, presets, scans, settings: RunSettings) -> list[dict]:
                     accuracy, covered, kept = score(points, truth, settings.seed)
                     half = completeness(thinned(np.concatenate(frames[::2]),
                                                 settings.seed), truth)
-                    strategy = echoes if scan == "imaging" else \
-                        scan if scan in SINGLE_SETS else f"{scan}_{echoes}"
+                    # a set named after its scan is a strategy; others are the scan's echo sets
+                    strategy = echoes if echoes.startswith(scan) else f"{scan}_{echoes}"
                     echoes = SINGLE_SETS.get(scan, echoes)
                     scan_kind = scan.split("_")[0]  # ofdm_image, ofdm_trusted: OFDM frames
                     per_frame = len(points) / sim.frames_simulated

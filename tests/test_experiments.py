@@ -239,6 +239,20 @@ def test_imaging_quick(tmp_path):
     assert "completeness 5 cm" in (tmp_path / "imaging.md").read_text()
 
 
+def test_imaging_trust_sets_keep_each_thresholds_points():
+    """One image's points per trust threshold: ``imaging`` at the default 0.4 and each
+    ``imaging_trust_<t>`` exactly the points whose coherence reaches t."""
+    from types import SimpleNamespace
+
+    sets = load_experiment("imaging").imaging_trust_sets
+    coherence = np.array([0.3, 0.35, 0.39, 0.4, 0.49, 0.5, 0.9])
+    points = np.arange(len(coherence) * 3, dtype=float).reshape(-1, 3)
+    got = sets(SimpleNamespace(points_world=points, coherence=coherence))
+    assert set(got) == {"imaging", "imaging_trust_0.35", "imaging_trust_0.5"}
+    for name, first in (("imaging_trust_0.35", 1), ("imaging", 3), ("imaging_trust_0.5", 5)):
+        assert np.array_equal(got[name], points[first:]), name
+
+
 def test_imaging_echo_sets_of_one_frame(scene_file):
     """The chart's echo sets of an OFDM frame simulated with echoes = "cells": "all" is exactly
     the frame that echoes = "all" gives (the sphere's beam hears the sphere and the wall), and
