@@ -12,7 +12,11 @@ or, where the scene's own integrator is Mitsuba's ``direct`` (the ``key`` look o
 light only (Mitsuba's ``volpath`` to depth 2: passing through glass is no bounce there, so what
 stands behind a glass partition is lit as what stands in front of it). Images are rendered in
 passes of a power-of-two number of samples per pixel (``render``), averaged in a fixed order, so
-a seed gives bit-identical images however many threads render them.
+a seed gives bit-identical images however many threads render them. A renderer keeps one Mitsuba
+camera, moved to each pose through its parameters, and renders a pass by a frozen function
+(``drjit.freeze``): the first calls trace Mitsuba's renderer into kernels, later ones replay
+them with the new pose and seed, bit for bit the image a plain ``mi.render`` gives. Tracing the
+renderer costs ~0.4 s a call on a furnished scene, more than rendering a 320 px image.
 
 The Monte Carlo noise of a path tracer at a few samples per pixel is a rendering artefact, not
 camera noise: at 32 spp a lit drywall room shows 15-20 grey levels of it (of 255), more than the
@@ -189,47 +193,76 @@ class CameraRenderer:
         ids = np.asarray(scene.registry_ids)
         self._shape_of_registry = np.full(ids.max() + 1, -1)
         self._shape_of_registry[ids] = np.arange(len(ids))
+        # One sensor, moved to each pose through its parameters, and one frozen render pass
+        # (module docstring): the same objects every call, so the recorded kernels replay.
+        self._camera = self.mi.load_dict(self._sensor_dict(Pose(np.eye(3), np.zeros(3))))
+        self._camera_parameters = self.mi.traverse(self._camera)
+        import drjit as dr
 
-    def _sensor(self, camera_pose: Pose):
-        mi = self.mi
+        #: Samples per pixel of a pass: the largest power of two dividing spp (:meth:`render`).
+        self._chunk = model.spp & -model.spp
+        # Recorded anew for another thread count: a recording made on one thread and replayed
+        # on several crashes Dr.Jit 1.5.
+        self._pass = dr.freeze(lambda scene, sensor, integrator, seed: self.mi.render(
+            scene, sensor=sensor, integrator=integrator, spp=self._chunk, seed=seed),
+            state_fn=lambda *_: (dr.thread_count(),))
+
+    def _sensor_dict(self, camera_pose: Pose) -> dict:
+        """Mitsuba description of the camera at ``camera_pose`` (world-from-camera)."""
         m = self.model
+        return {"type": "perspective", "fov": float(np.degrees(m.horizontal_fov)),
+                "fov_axis": "x", "near_clip": 0.01, "far_clip": 1000.0,
+                "to_world": self._to_world(camera_pose),
+                "film": {"type": "hdrfilm", "width": m.width, "height": m.height,
+                         "rfilter": {"type": "box"}, "pixel_format": "rgb"},
+                "sampler": {"type": "independent", "sample_count": 1}}
+
+    def _to_world(self, camera_pose: Pose):
+        """Mitsuba's to_world transform of the camera at ``camera_pose`` (x right, y down)."""
         origin = camera_pose.translation
         forward = camera_pose.transform_vectors([0.0, 0.0, 1.0])
         up = camera_pose.transform_vectors([0.0, -1.0, 0.0])
-        return mi.load_dict({
-            "type": "perspective", "fov": float(np.degrees(m.horizontal_fov)), "fov_axis": "x",
-            "near_clip": 0.01, "far_clip": 1000.0,
-            "to_world": mi.ScalarTransform4f().look_at(origin=origin.tolist(),
-                                                       target=(origin + forward).tolist(),
-                                                       up=up.tolist()),
-            "film": {"type": "hdrfilm", "width": m.width, "height": m.height,
-                     "rfilter": {"type": "box"}, "pixel_format": "rgb"},
-            "sampler": {"type": "independent", "sample_count": 1}})
+        return self.mi.ScalarTransform4f().look_at(origin=origin.tolist(),
+                                                   target=(origin + forward).tolist(),
+                                                   up=up.tolist())
 
     def render(self, sensor_pose: Pose, seed: int = 0) -> CameraImages:
         """Images from the camera of a sensor head at ``sensor_pose`` (world-from-sensor)."""
-        mi = self.mi
+        import drjit as dr
+
         camera_pose = self.model.world_from_camera(sensor_pose)
-        sensor = self._sensor(camera_pose)
+        self._camera_parameters["to_world"] = self._to_world(camera_pose)
+        self._camera_parameters.update()
         base = int(np.random.SeedSequence(seed).generate_state(1)[0] % (2**31))
         channels = 9 if self.model.denoise else 3
         total = np.zeros((self.model.height, self.model.width, channels))
-        # Passes of `chunk` samples per pixel, summed in order. A pixel's samples are adjacent
+        # Passes of `_chunk` samples per pixel, summed in order. A pixel's samples are adjacent
         # in Mitsuba's wavefront and Dr.Jit's CPU threads take blocks of a power-of-two size:
         # with a power-of-two chunk each pixel is summed by one thread, so the image does not
         # depend on the threads (12 samples in one pass: ~40 pixels of a 320 px image differ
-        # between thread counts). Each render call costs ~0.4 s of tracing its kernel on a
-        # furnished scene: at 320 px one call of 8 samples takes 0.6 s, 8 calls 3.6 s.
-        chunk = self.model.spp & -self.model.spp  # the largest power of two dividing spp
-        for k in range(self.model.spp // chunk):
-            img = mi.render(self.scene.scene, sensor=sensor, integrator=self._integrator,
-                            spp=chunk, seed=base + k)
-            total += chunk * np.asarray(img, dtype=float)[..., :channels]
+        # between thread counts).
+        for k in range(self.model.spp // self._chunk):
+            img = self._render_pass(dr.opaque(self.mi.UInt32, base + k))
+            total += self._chunk * np.asarray(img, dtype=float)[..., :channels]
         mean = (total / self.model.spp).astype(np.float32)
         rgb = denoise(mean[..., :3], mean[..., 3:6], mean[..., 6:9]) if self.model.denoise \
             else np.ascontiguousarray(mean[..., :3])
         depth, shape_index = self.ground_truth(camera_pose)
         return CameraImages(rgb, (rgb @ LUMINANCE).astype(np.float32), depth, shape_index)
+
+    def _render_pass(self, seed):
+        """One pass of the camera as it stands (the frozen one where Dr.Jit can record the
+        scene; a scene with nested virtual calls, e.g. an emitter whose radiance is a texture,
+        cannot be recorded and is rendered plainly from then on, the same image)."""
+        if self._pass is not None:
+            try:
+                return self._pass(self.scene.scene, self._camera, self._integrator, seed)
+            except RuntimeError as err:
+                if "frozen function" not in str(err):
+                    raise
+                self._pass = None
+        return self.mi.render(self.scene.scene, sensor=self._camera, integrator=self._integrator,
+                              spp=self._chunk, seed=seed)
 
     def ground_truth(self, camera_pose: Pose):
         """Z-depth [m] (inf: nothing) and shape index (-1: nothing) per pixel, (H, W) each."""

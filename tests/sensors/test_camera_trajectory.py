@@ -80,6 +80,29 @@ def test_rendering_is_seeded_and_independent_of_the_threads():
     assert not np.array_equal(images[0], other)
 
 
+def test_frozen_render_replays_the_plain_render_bit_for_bit():
+    """The renderer's frozen pass (recorded once, replayed for later poses and seeds) gives the
+    image that Mitsuba's plain render of the same camera, pose and seed gives, at every pose
+    along a drive: the first call records, the second records again with the changing values
+    opaque, the later ones replay."""
+    path = SCENES / "room_glass" / "scene.xml"
+    scene = mitsonar.load_scene(path)
+    model = CameraModel(spp=4, denoise=False).at_resolution(160)
+    renderer = CameraRenderer(scene, model)
+    pose_at = pose_along(Trajectory.from_scene(path))
+    mi = renderer.mi
+    for k, t in enumerate((0.0, 6.0, 12.0, 18.0)):
+        pose = pose_at(t)
+        image = renderer.render(pose, seed=k).rgb
+        base = int(np.random.SeedSequence(k).generate_state(1)[0] % (2**31))
+        sensor = mi.load_dict(renderer._sensor_dict(model.world_from_camera(pose)))
+        plain = mi.render(scene.scene, sensor=sensor, integrator=renderer._integrator, spp=4,
+                          seed=base)
+        assert image.std() > 0
+        np.testing.assert_array_equal(image, np.asarray(plain, dtype=np.float32)[..., :3])
+    assert renderer._pass.n_recordings <= 2  # replayed, not traced again
+
+
 def test_camera_depth_matches_sonar_depth_on_a_wall(scene_file):
     path = scene_file("w", material_xml("w", preset="concrete"), rectangle_xml("w", (0, 0, 2.5), size=(20, 20)))
     sonar = mitsonar.Sonar(path)
