@@ -178,9 +178,17 @@ class CameraImages:
 
 
 class CameraRenderer:
-    """Renders a :class:`CameraModel` in a loaded scene; reuse it for every pose."""
+    """Renders a :class:`CameraModel` in a loaded scene; reuse it for every pose.
 
-    def __init__(self, scene: AcousticScene, model: CameraModel = CameraModel()):
+    Args:
+        scene: the loaded scene.
+        model: the camera.
+        frozen: render by a frozen pass, recorded once and replayed (module docstring); False:
+            Mitsuba's plain render at every call (the same images, each call traced anew).
+    """
+
+    def __init__(self, scene: AcousticScene, model: CameraModel = CameraModel(),
+                 frozen: bool = True):
         self.mi = mitsuba()
         self.scene = scene
         self.model = model
@@ -205,7 +213,7 @@ class CameraRenderer:
         # on several crashes Dr.Jit 1.5.
         self._pass = dr.freeze(lambda scene, sensor, integrator, seed: self.mi.render(
             scene, sensor=sensor, integrator=integrator, spp=self._chunk, seed=seed),
-            state_fn=lambda *_: (dr.thread_count(),))
+            state_fn=lambda *_: (dr.thread_count(),)) if frozen else None
 
     def _sensor_dict(self, camera_pose: Pose) -> dict:
         """Mitsuba description of the camera at ``camera_pose`` (world-from-camera)."""
