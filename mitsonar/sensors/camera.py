@@ -210,9 +210,11 @@ class CameraRenderer:
         #: Samples per pixel of a pass: the largest power of two dividing spp (:meth:`render`).
         self._chunk = model.spp & -model.spp
         # Recorded anew for another thread count: a recording made on one thread and replayed
-        # on several crashes Dr.Jit 1.5.
-        self._pass = dr.freeze(lambda scene, sensor, integrator, seed: self.mi.render(
-            scene, sensor=sensor, integrator=integrator, spp=self._chunk, seed=seed),
+        # on several crashes Dr.Jit 1.5. The pass holds no reference to the renderer (no cycle:
+        # both are freed as soon as the renderer is dropped, not by a later garbage collection).
+        mi, chunk = self.mi, self._chunk
+        self._pass = dr.freeze(lambda scene, sensor, integrator, seed: mi.render(
+            scene, sensor=sensor, integrator=integrator, spp=chunk, seed=seed),
             state_fn=lambda *_: (dr.thread_count(),)) if frozen else None
 
     def _sensor_dict(self, camera_pose: Pose) -> dict:
