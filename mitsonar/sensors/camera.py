@@ -203,7 +203,7 @@ class CameraRenderer:
         self._shape_of_registry[ids] = np.arange(len(ids))
         # One sensor, moved to each pose through its parameters, and one frozen render pass
         # (module docstring): the same objects every call, so the recorded kernels replay.
-        self._camera = self.mi.load_dict(self._sensor_dict(Pose(np.eye(3), np.zeros(3))))
+        self._camera = self.mi.load_dict(self._sensor_dict())
         self._camera_parameters = self.mi.traverse(self._camera)
         import drjit as dr
 
@@ -217,12 +217,11 @@ class CameraRenderer:
             scene, sensor=sensor, integrator=integrator, spp=chunk, seed=seed),
             state_fn=lambda *_: (dr.thread_count(),)) if frozen else None
 
-    def _sensor_dict(self, camera_pose: Pose) -> dict:
-        """Mitsuba description of the camera at ``camera_pose`` (world-from-camera)."""
+    def _sensor_dict(self) -> dict:
+        """Mitsuba description of the camera (its pose is set by :meth:`render`)."""
         m = self.model
         return {"type": "perspective", "fov": float(np.degrees(m.horizontal_fov)),
                 "fov_axis": "x", "near_clip": 0.01, "far_clip": 1000.0,
-                "to_world": self._to_world(camera_pose),
                 "film": {"type": "hdrfilm", "width": m.width, "height": m.height,
                          "rfilter": {"type": "box"}, "pixel_format": "rgb"},
                 "sampler": {"type": "independent", "sample_count": 1}}
