@@ -5,8 +5,9 @@ Variant. Every scene, ray cast and kernel runs on one Mitsuba variant per proces
 ``MITSONAR_VARIANT`` (environment; default ``llvm_ad_rgb``: Dr.Jit's LLVM backend on the CPU,
 RGB for the camera) or :func:`set_variant` before the first scene is loaded. ``cuda_ad_rgb``
 selects Dr.Jit's CUDA backend where the Mitsuba build and an NVIDIA GPU provide it; mitsonar's
-kernels take their array types from :func:`backend`. (The CUDA variant has not been run on a GPU
-by mitsonar's tests: the CI machines have none.)
+kernels take their array types from :func:`backend`. (The CUDA variant ran once on an NVIDIA
+H200: the same depths and decisions as on the CPU, but no faster, a frame being mostly host
+work in NumPy; docs/performance.md. The CI machines have no GPU.)
 
 Alignment.
 Dr.Jit's LLVM backend specialises a kernel on the memory alignment of its input buffers. NumPy
