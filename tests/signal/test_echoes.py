@@ -151,11 +151,14 @@ def _assert_rank_zero_is_the_detections(detections):
                          ids=["scan", "cycle"])
 def test_the_first_echo_setting_reproduces_the_single_detection_path(detections):
     """echoes = "first" (the default) against the decisions main's single-detection path took on
-    the same recordings (MAIN_FIRST_ECHOES): equal bit for bit, and the table holds exactly the
-    detected beams."""
+    the same recordings (MAIN_FIRST_ECHOES): the same beams detected (NaN where none), every
+    value within 1e-9 of it relative (bit for bit on the machine that recorded them; another
+    CPU's vector maths differs by an ULP: 1.2e-16 relative on an AVX2-only AMD EPYC, 5e-12 on
+    the CUDA backend), and the table holds exactly the detected beams."""
     d = detections()
     for name, expected in MAIN_FIRST_ECHOES[detections.__name__.split("_")[0]].items():
-        np.testing.assert_array_equal(np.ravel(getattr(d, name)), expected)  # NaN equals NaN
+        np.testing.assert_allclose(np.ravel(getattr(d, name)), expected, rtol=1e-9, atol=0.0,
+                                   equal_nan=True)  # NaN (no detection) only where expected
     _assert_rank_zero_is_the_detections(d)
     assert len(d.echoes) == d.detected.sum() and np.all(d.echoes.peak)
 
