@@ -21,32 +21,42 @@ class VoxelThinner:
         check_positive("VoxelThinner.voxel [m]", voxel)
         self.voxel, self.batch = voxel, batch
         self.rng = np.random.default_rng(seed)
-        self.points, self.keys = np.zeros((0, 3)), np.zeros(0)
+        self.points, self.keys, self.labels = np.zeros((0, 3)), np.zeros(0), np.zeros(0, int)
         self.waiting, self.raw = [], 0
 
-    def add(self, points) -> None:
-        """Add points (N, 3) [m]."""
-        self.waiting.append(np.asarray(points, dtype=float).reshape(-1, 3))
-        self.raw += len(self.waiting[-1])
-        if sum(len(p) for p in self.waiting) >= self.batch:
+    def add(self, points, labels=None) -> None:
+        """Add points (N, 3) [m], each with an integer label (N,) that stays with it (default
+        0; e.g. a surfel map's plane group)."""
+        points = np.asarray(points, dtype=float).reshape(-1, 3)
+        labels = np.zeros(len(points), int) if labels is None else np.asarray(labels, int)
+        self.waiting.append((points, labels))
+        self.raw += len(points)
+        if sum(len(p) for p, _ in self.waiting) >= self.batch:
             self._compact()
 
     def _compact(self) -> None:
-        new = np.concatenate(self.waiting) if self.waiting else np.zeros((0, 3))
-        points = np.concatenate([self.points, new])
-        keys = np.concatenate([self.keys, self.rng.random(len(new))])
+        new = [p for p, _ in self.waiting]
+        points = np.concatenate([self.points] + new)
+        labels = np.concatenate([self.labels] + [q for _, q in self.waiting])
+        keys = np.concatenate([self.keys, self.rng.random(len(points) - len(self.points))])
         cell = cell_index(points, self.voxel)
         order = np.argsort(keys, kind="stable")  # by key, then (stable) by cell: each
         order = order[np.argsort(cell[order], kind="stable")]  # cell's smallest key first
         first = np.ones(len(order), dtype=bool)
         first[1:] = cell[order[1:]] != cell[order[:-1]]
         keep = np.sort(order[first])
-        self.points, self.keys, self.waiting = points[keep], keys[keep], []
+        self.points, self.keys, self.labels = points[keep], keys[keep], labels[keep]
+        self.waiting = []
 
     def result(self) -> np.ndarray:
         """The thinned points so far (M, 3) [m]."""
         self._compact()
         return self.points.copy()
+
+    def labelled_result(self) -> tuple[np.ndarray, np.ndarray]:
+        """The thinned points so far (M, 3) [m] and their labels (M,)."""
+        self._compact()
+        return self.points.copy(), self.labels.copy()
 
 
 def cell_index(points, voxel: float) -> np.ndarray:

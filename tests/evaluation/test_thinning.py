@@ -26,6 +26,13 @@ def test_thinner_keeps_one_input_point_per_voxel_whatever_the_batches():
     other = VoxelThinner(0.01, seed=4)
     other.add(points)
     assert not np.array_equal(other.result(), kept)  # the seed picks the point
+    labelled = VoxelThinner(0.01, seed=3, batch=700)
+    for part, label in zip(np.array_split(points, 9), range(9)):
+        labelled.add(part, np.full(len(part), label))
+    kept_labelled, labels = labelled.labelled_result()
+    np.testing.assert_array_equal(kept_labelled, kept)  # labels do not change the choice
+    owner = {tuple(p): k for k, part in enumerate(np.array_split(points, 9)) for p in part}
+    assert labels.tolist() == [owner[tuple(p)] for p in kept_labelled]  # each keeps its own
 
 
 def test_voxel_means_average_each_voxel_and_leave_a_voxel_map_unchanged():

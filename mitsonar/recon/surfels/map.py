@@ -64,15 +64,28 @@ class SurfelMap:
     times: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
     def sample(self, spacing: float = 0.01, seed: int = 0):
-        """Points (M, 3) [m] sampled uniformly on the mesh, one per ``spacing``^2 (metrics'
-        :func:`~mitsonar.scene.mesh.sample_surface`), and their plane group (M,)."""
+        """Points (M, 3) [m] on the mesh, one in each ``spacing`` cube it passes through (about
+        one per ``spacing``^2), and their plane group (M,): each pose's mesh sampled uniformly
+        at four per ``spacing``^2 (metrics' :func:`~mitsonar.scene.mesh.sample_surface`) and the
+        samples thinned as they come to one per cube
+        (:class:`~mitsonar.evaluation.thinning.VoxelThinner`; four so that 98 % of the cubes
+        get one wherever one mesh or several lie). The poses' meshes overlap wherever their
+        images saw the same plane: their plain union counted a surface once per pose that saw
+        it (2.9 times the points on a three-pose corner; structure's whole drive outgrew 11
+        GB)."""
+        from mitsonar.evaluation.thinning import VoxelThinner
         from mitsonar.scene.mesh import SceneMesh, sample_surface
 
         n = len(self.groups)
-        mesh = SceneMesh(self.vertices, self.triangles, self.plane,
-                         [f"plane{g}" for g in range(n)], np.zeros(n, int), np.zeros(n, bool), [])
-        samples = sample_surface(mesh, spacing, seed)
-        return samples.points, self.plane[samples.triangle]
+        thinner = VoxelThinner(spacing, seed)
+        meshes = self.meshes or [self]  # a map built without per-pose meshes: its union
+        for k, m in enumerate(meshes):
+            if len(m.triangles):
+                mesh = SceneMesh(m.vertices, m.triangles, m.plane, [f"plane{g}" for g in range(n)],
+                                 np.zeros(n, int), np.zeros(n, bool), [])
+                samples = sample_surface(mesh, spacing / 2, (seed, k))
+                thinner.add(samples.points, m.plane[samples.triangle])
+        return thinner.labelled_result()
 
 
 def _register(scans, shadow, refuted=None):
