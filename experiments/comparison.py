@@ -62,7 +62,7 @@ from mitsonar.evaluation.coverage import (Curve, covered_fraction, distance_driv
                                           in_view_along, save_completeness_figure)
 from mitsonar.evaluation.metrics import (DEFAULT_THRESHOLD, Evaluation, evaluate,
                                          save_error_figure, visible_from)
-from mitsonar.evaluation.thinning import VoxelThinner, voxel_means
+from mitsonar.recon.thinning import VoxelThinner, voxel_means
 from mitsonar.evaluation.topviews import Panel, SceneView, save_top_views
 from mitsonar.io import write_ply, write_table
 from mitsonar.recon.repeated import RepeatedMapSpec, build_voxel_map, scan_repeated

@@ -78,7 +78,7 @@ from scipy.spatial import cKDTree
 import mitsonar
 from mitsonar.evaluation.coverage import in_view_along
 from mitsonar.evaluation.metrics import point_to_mesh, sample_surface, visible_from
-from mitsonar.evaluation.thinning import VoxelThinner
+from mitsonar.recon.thinning import VoxelThinner
 from mitsonar.io import write_table
 from mitsonar.plots import _pyplot, save_png
 from mitsonar.scene.mesh import scene_mesh

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 import mitsonar
-from mitsonar.evaluation.thinning import cell_index
+from mitsonar.recon.thinning import cell_index
 from mitsonar.sensors.camera import CameraModel
 from mitsonar.recon.surfels import (CheckPings, PlaneGroups, PoseScan, SurfelSettings, fit_plane,
                               group_surfels, grow_planes, map_surfels, region_labels,

@@ -18,6 +18,7 @@ from mitsonar.recon.surfels.planes import (PlaneGroups, _on_planes, _pad_groups,
                                            group_surfels, refine_planes)
 from mitsonar.recon.surfels.scanning import PoseScan, add_surfels, scan_pose
 from mitsonar.recon.surfels.settings import SurfelSettings
+from mitsonar.recon.thinning import VoxelThinner
 from mitsonar.sensors.camera import CameraModel, CameraRenderer
 from mitsonar.sensors.sonar import Sonar
 from mitsonar.sensors.trajectory import Trajectory
@@ -68,12 +69,11 @@ class SurfelMap:
         one per ``spacing``^2), and their plane group (M,): each pose's mesh sampled uniformly
         at four per ``spacing``^2 (metrics' :func:`~mitsonar.scene.mesh.sample_surface`) and the
         samples thinned as they come to one per cube
-        (:class:`~mitsonar.evaluation.thinning.VoxelThinner`; four so that 98 % of the cubes
+        (:class:`~mitsonar.recon.thinning.VoxelThinner`; four so that 98 % of the cubes
         get one wherever one mesh or several lie). The poses' meshes overlap wherever their
         images saw the same plane: their plain union counted a surface once per pose that saw
         it (2.9 times the points on a three-pose corner; structure's whole drive outgrew 11
         GB)."""
-        from mitsonar.evaluation.thinning import VoxelThinner
         from mitsonar.scene.mesh import SceneMesh, sample_surface
 
         n = len(self.groups)

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from mitsonar.evaluation.thinning import VoxelThinner, voxel_means
+from mitsonar.recon.thinning import VoxelThinner, voxel_means
 from mitsonar.recon.voxelmap import VoxelMapSettings, voxelise
 
 

@@ -1,6 +1,7 @@
-"""Point clouds brought to a common resolution before they are scored: one seeded random point
-per voxel (:class:`VoxelThinner`, the ground truth's 1 cm: noise is not averaged away) or the mean
-of each voxel's points (:func:`voxel_means`, a voxel map's own resolution)."""
+"""Point clouds brought to a common resolution (before they are scored; a surfel map's samples):
+one seeded random point per voxel (:class:`VoxelThinner`, the ground truth's 1 cm: noise is not
+averaged away) or the mean of each voxel's points (:func:`voxel_means`, a voxel map's own
+resolution)."""
 
 from __future__ import annotations
 
