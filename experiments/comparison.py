@@ -155,10 +155,12 @@ def sonar_run(scene, mode: str, preset: str, trajectory, settings: RunSettings, 
         sonar = mitsonar.Sonar(scene, config)
         surfel = SurfelSettings(image_width=settings.width, spp=settings.spp, seed=settings.seed)
         final = map_surfels_along(sonar, trajectory, surfel, settings.duration, progress)
-        maps = [build_map(final.scans[:int(np.sum(final.times <= t + 1e-9))], final.settings)
-                if t < checkpoints[-1] else final for t in checkpoints]
-        clouds = [m.sample(THIN_VOXEL, seed=settings.seed)[0] if len(m.triangles)
-                  else np.zeros((0, 3)) for m in maps]
+        clouds = []
+        for t in checkpoints:  # one checkpoint's map at a time (each holds every pose's mesh)
+            m = build_map(final.scans[:int(np.sum(final.times <= t + 1e-9))], final.settings) \
+                if t < checkpoints[-1] else final
+            clouds.append(m.sample(THIN_VOXEL, seed=settings.seed)[0] if len(m.triangles)
+                          else np.zeros((0, 3)))
         rejected = ", ".join(f"{v} {k.replace('_', ' ')}" for k, v in final.rejected.items())
         diagnosis = (f"{len(final.surfel_pose)} surfels registered ({rejected}), "
                      f"{len(final.groups)} planes")
