@@ -20,7 +20,7 @@ from mitsonar.sensors.imaging_sonar import ImagingSonar  # noqa: E402
 from mitsonar.signal.ofdm import Schedule, code_set  # noqa: E402
 from mitsonar.signal.detection import Detection, DetectionSettings  # noqa: E402
 from mitsonar.scene.loading import AcousticScene, SceneError, load_scene  # noqa: E402
-from mitsonar.physics.waveforms import Pulse  # noqa: E402
+from mitsonar.physics.waveforms import Chirp, Pulse  # noqa: E402
 from mitsonar.sensors.sonar import Ping, Scan, Sonar, SonarConfig  # noqa: E402
 from mitsonar.trace.tracer import TraceSettings  # noqa: E402
 from mitsonar.sensors.trajectory import OdometryDrift, Trajectory  # noqa: E402
@@ -28,7 +28,7 @@ from mitsonar.physics.transducer import Transducer  # noqa: E402
 from mitsonar.recon.voxelmap import VoxelMap, VoxelMapSettings, colourise  # noqa: E402
 
 __all__ = ["AcousticMaterial", "AcousticScene", "ArrayGeometry", "ArrayLayout", "CameraModel",
-           "CameraRenderer", "DatasetSpec", "Detection", "OdometryDrift", "Trajectory",
+           "CameraRenderer", "Chirp", "DatasetSpec", "Detection", "OdometryDrift", "Trajectory",
            "open_dataset", "render_dataset", "OfdmSonar", "Schedule", "code_set", "VoxelMap",
            "VoxelMapSettings", "colourise", "ImagingSonar",
            "DetectionSettings", "Medium", "PRESETS", "Ping", "Pose", "Pulse", "Scan", "SceneError",

@@ -197,19 +197,25 @@ def test_shadow_lines_quick(tmp_path):
 def test_imaging_quick(tmp_path):
     """Every preset and strategy has a row; the scans run at their own rates (a sweep of B
     pings a listening time each, an OFDM frame, an image a listening time); one simulation's echo
-    sets nest (first within all within cells), and so do the imaging trust thresholds' points."""
+    sets nest (first within all within cells), and so do the imaging trust thresholds' points;
+    the chirp images run where the preset's transducers pass the sweep, a sweep's length later."""
     import mitsonar
     from mitsonar.sensors.ofdm_sonar import OfdmSonar
 
     run_experiment("imaging", "--quick", "--out", str(tmp_path))
-    config_for = load_experiment("imaging").config_for
+    experiment = load_experiment("imaging")
+    config_for, chirps = experiment.config_for, experiment.CHIRP_SCANS
     presets = ("default", "broadband", "paper")
     rows = {(r["preset"], r["strategy"]): r
             for r in csv.DictReader((tmp_path / "imaging.csv").open())}
+    trusts = ("", "_trust_0.35", "_trust_0.5")
     strategies = [f"{scan}_{e}" for scan in ("sequential", "ofdm")
-                  for e in ("first", "all", "cells")] + ["ofdm_trusted", "ofdm_image", "imaging",
-                                                         "imaging_trust_0.35", "imaging_trust_0.5"]
-    assert set(rows) == {(p, s) for p in presets for s in strategies}
+                  for e in ("first", "all", "cells")] + ["ofdm_trusted", "ofdm_image"] \
+        + [f"imaging{t}" for t in trusts]
+    chirped = {(p, f"{scan}{t}"): scan for scan, (allowed, _, _) in chirps.items()
+               for p in allowed for t in trusts}
+    assert {p for p, _ in chirped} == {"broadband", "paper"}
+    assert set(rows) == {(p, s) for p in presets for s in strategies} | set(chirped)
     office = mitsonar.load_scene(SCENES / "office" / "scene.xml")
     periods = {}  # the sensor's own frame time per preset and scan [s]
     for preset in presets:
@@ -220,21 +226,26 @@ def test_imaging_quick(tmp_path):
                            .frame_duration,
                            "imaging": config.record_duration}
     for (preset, strategy), r in rows.items():
+        sweep = chirps[chirped[preset, strategy]][1] if (preset, strategy) in chirped else None
+        period = periods[preset][r["scan"]] + (0 if sweep is None else
+                                               sweep.duration - config_for(preset).pulse.duration)
         number = {k: float(v) for k, v in r.items() if k not in ("scene", "strategy", "preset",
                                                                   "scan", "echoes")}
         assert 0 <= number["accuracy_pct"] <= 100 and 0 <= number["completeness_5cm_pct"] <= 100
         assert 0 < number["vlp16_completeness_5cm_pct"] <= 100
         assert number["frames_simulated"] == number["frames_total"] >= 1  # stride 1
-        assert number["frame_rate_hz"] == pytest.approx(1 / periods[preset][r["scan"]], rel=1e-5)
+        assert number["frame_rate_hz"] == pytest.approx(1 / period, rel=1e-5)
     for preset in presets:
         for scan in ("sequential", "ofdm"):
             points = [int(rows[preset, f"{scan}_{e}"]["points"]) for e in ("first", "all", "cells")]
             assert points == sorted(points) and points[-1] > 0, (preset, scan, points)
     assert int(rows["paper", "ofdm_all"]["points"]) > int(rows["paper", "ofdm_first"]["points"])
-    for preset in presets:  # the same images: a stricter trust threshold keeps a subset
-        points = [int(rows[preset, s]["points"])
-                  for s in ("imaging_trust_0.35", "imaging", "imaging_trust_0.5")]
-        assert points == sorted(points, reverse=True), (preset, points)
+    images = [(p, "imaging") for p in presets] \
+        + sorted({(p, scan) for (p, _), scan in chirped.items()})
+    for preset, scan in images:  # the same images: a stricter trust threshold keeps a subset
+        points = [int(rows[preset, f"{scan}{t}"]["points"])
+                  for t in ("_trust_0.35", "", "_trust_0.5")]
+        assert points == sorted(points, reverse=True), (preset, scan, points)
     assert (tmp_path / "imaging.png").stat().st_size > 30_000
     assert "completeness 5 cm" in (tmp_path / "imaging.md").read_text()
 

@@ -25,8 +25,8 @@ from mitsonar.physics.medium import Medium
 from mitsonar.signal.detection import Detection, DetectionSettings, Echoes
 from mitsonar.signal.receiver import EchoProcessor
 from mitsonar.scene.loading import AcousticScene, load_scene
-from mitsonar.physics.waveforms import Pulse
-from mitsonar.signal.band import Band, Recording
+from mitsonar.physics.waveforms import Chirp, Pulse
+from mitsonar.signal.band import BAND_TOP, Band, Recording
 from mitsonar.signal.synthesis import EchoSynthesizer
 from mitsonar.trace.paths import Paths
 from mitsonar.trace.tracer import AcousticTracer, TraceResult, TraceSettings
@@ -55,7 +55,8 @@ class SonarConfig:
         medium: air.
         transducer: element model.
         geometry: arrays and field of view.
-        pulse: drive waveform.
+        pulse: drive waveform: a tone burst (:class:`~mitsonar.physics.waveforms.Pulse`) or a
+            frequency sweep (:class:`~mitsonar.physics.waveforms.Chirp`, for imaging).
         trace: ray-tracing fidelity and scattering model.
         detection: receiver decisions.
         sample_rate: sample rate of real recordings [Hz]; it also sets the frequency grid and
@@ -84,7 +85,7 @@ class SonarConfig:
     medium: Medium = field(default_factory=Medium)
     transducer: Transducer = field(default_factory=Transducer)
     geometry: ArrayGeometry = field(default_factory=ArrayGeometry)
-    pulse: Pulse = field(default_factory=Pulse)
+    pulse: Pulse | Chirp = field(default_factory=Pulse)
     trace: TraceSettings = field(default_factory=TraceSettings)
     detection: DetectionSettings = field(default_factory=DetectionSettings)
     sample_rate: float = 200_000.0
@@ -108,6 +109,10 @@ class SonarConfig:
         if self.sample_rate < 4 * self.pulse.frequency:
             raise ValueError(f"SonarConfig.sample_rate must be >= 4x the carrier "
                              f"({4 * self.pulse.frequency:.0f} Hz), got {self.sample_rate}")
+        top = self.pulse.frequency + 0.5 * self.pulse.bandwidth
+        if top >= BAND_TOP * self.sample_rate:
+            raise ValueError(f"SonarConfig.sample_rate [Hz] must be above {1 / BAND_TOP:g}x the "
+                             f"drive's top frequency ({top:.0f} Hz), got {self.sample_rate}")
 
     @classmethod
     def preset(cls, name: str) -> "SonarConfig":
@@ -124,7 +129,9 @@ class SonarConfig:
     @classmethod
     def from_toml(cls, path) -> "SonarConfig":
         """Load a config: optional ``preset`` key, then tables [medium], [transducer], [pulse],
-        [trace], [detection] and top-level scalars overriding it. Unknown keys are errors."""
+        [trace], [detection] and top-level scalars overriding it; a [chirp] table (the fields of
+        :class:`~mitsonar.physics.waveforms.Chirp`) drives a frequency sweep instead of the
+        pulse. Unknown keys are errors."""
         path = Path(path)
         try:
             data = tomllib.loads(path.read_text())
@@ -132,6 +139,18 @@ class SonarConfig:
             raise ValueError(f"{path}: {err}") from None
         config = cls.preset(data.pop("preset", "default"))
         changes = {}
+        if "chirp" in data:
+            if "pulse" in data:
+                raise ValueError(f"{path}: give [pulse] or [chirp], not both")
+            sweep, known = data.pop("chirp"), [f.name for f in fields(Chirp)]
+            bad = set(sweep) - set(known) if isinstance(sweep, dict) else set()
+            if not isinstance(sweep, dict) or bad:
+                raise ValueError(f"{path}: [chirp] must be a table of {known}"
+                                 + (f"; unknown keys {sorted(bad)}" if bad else ""))
+            try:
+                changes["pulse"] = Chirp(**sweep)
+            except (TypeError, ValueError) as err:
+                raise ValueError(f"{path}: [chirp] {err}") from None
         for f in fields(cls):
             if f.name not in data:
                 continue

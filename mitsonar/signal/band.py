@@ -28,6 +28,10 @@ BASEBAND_OVERSAMPLING = 2
 #: real form's impulse grid and receive chain are complex at the full rate too; measured: OFDM
 #: frames at 0.65 of the rate 13 % faster, pings at 0.17 of it 30 %.)
 BASEBAND_AUTO = 0.7
+#: The band keeps frequencies below this share of the reference sample rate; the drive's
+#: spectrum above it is left out (:class:`~mitsonar.sensors.sonar.SonarConfig` refuses drives
+#: whose band reaches it).
+BAND_TOP = 0.4
 #: Bytes of complex grid inverse-transformed at a time (:meth:`Band.to_analytic`): a few rows
 #: that stay in the processor's cache (measured: the 600 envelopes of a paper-preset cycle's
 #: code-ownership test, 8 800 samples each, 2.6x faster 32 rows at a time than all at once).
@@ -166,7 +170,7 @@ class Band:
             w = np.zeros(self.n_fft, dtype=complex)
             w[positive] = self.system_response(waveform, f[positive])
             kept = (np.abs(w) > self.floor * np.abs(w).max()) \
-                & (np.abs(f) < 0.4 * self.reference_rate)
+                & (np.abs(f) < BAND_TOP * self.reference_rate)
             w = np.where(kept, w, 0.0)
             if self.bins is not None \
                     and (np.any(w[: self.bins.start]) or np.any(w[self.bins.stop:])):

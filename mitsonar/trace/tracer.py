@@ -52,7 +52,7 @@ from mitsonar.frames import Pose, orthonormal_basis
 from mitsonar.physics.array import APERTURE, ArrayGeometry
 from mitsonar.physics.medium import Medium
 from mitsonar.physics.transducer import Transducer
-from mitsonar.physics.waveforms import Pulse
+from mitsonar.physics.waveforms import Chirp, Pulse
 from mitsonar.scene.loading import AcousticScene
 from mitsonar.trace.casting import (_EPS, RayCaster, _length, _rotate, _rows_dot, _unit,
                                     ray_differentials)
@@ -214,15 +214,15 @@ class AcousticTracer(RayCaster):
         geometry: arrays of the sensor head.
         transducer: element model (directivity, source level).
         medium: air.
-        pulse: drive pulse (its carrier sets the wavenumber of the patch integrals).
+        pulse: drive waveform (its centre frequency sets the wavenumber of the patch integrals).
         settings: fidelity and model choices.
     """
 
     def __init__(self, scene: AcousticScene, geometry: ArrayGeometry, transducer: Transducer,
-                 medium: Medium, pulse: Pulse, settings: TraceSettings = TraceSettings()):
-        # The band's top: half the wider of the transducer's and the pulse's bandwidths above
+                 medium: Medium, pulse: Pulse | Chirp, settings: TraceSettings = TraceSettings()):
+        # The band's top: half the wider of the transducer's and the drive's bandwidths above
         # the carrier.
-        top = pulse.frequency + 0.5 * max(transducer.bandwidth_6db, 1.0 / pulse.duration)
+        top = pulse.frequency + 0.5 * max(transducer.bandwidth_6db, pulse.bandwidth)
         self.k = float(medium.wavenumber(pulse.frequency))
         super().__init__(scene, geometry, settings, (self.k, float(medium.wavenumber(top))))
         self.transducer = transducer
