@@ -17,10 +17,10 @@ it was measured from (no odometry drift):
 * imaging: single-ping receive images (:class:`~mitsonar.sensors.imaging_sonar.ImagingSonar`,
   one transmit element), one per listening cycle (30.4 / 34.0 ms); the same images also at the
   trust thresholds of :data:`IMAGING_TRUST` (``imaging_trust_<threshold>``).
-* imaging_chirp, imaging_chirp_wide: the same single-ping images with the transmit element
-  driven by a 4 ms linear sweep instead of the tone burst (``Chirp``, :data:`CHIRP_SCANS`), as
-  RTIS images: 30-50 kHz (``paper`` and ``broadband``) and 20-80 kHz (``paper``); the cycle
-  grows by the sweep's length (33.9 ms with the paper preset, 37.5 ms broadband).
+* imaging_chirp: the same single-ping images with the transmit element driven by a 4 ms
+  30-50 kHz linear sweep instead of the tone burst (``Chirp``, :data:`CHIRP_SCANS`), as RTIS
+  images (``paper`` and ``broadband``); the cycle grows by the sweep's length (33.9 ms with the
+  paper preset, 37.5 ms broadband).
 * ofdm_trusted: the same OFDM frames (poses and seeds), every echo and range cell trusted by
   their arrival directions alone: no side-lobe check along the beam axis, one plane wave from
   the measured direction explaining ``min_coherence`` of the channels' power (the check's
@@ -103,15 +103,12 @@ SCENE_NAMES = ("office", "workshop")
 #: The chart's sonar configurations (:func:`config_for`): "broadband" is the physical default
 #: with 20 kHz transducers (``Transducer.broadband()``).
 PRESETS = ("default", "broadband", "paper")
-SCANS = ("sequential", "ofdm", "ofdm_trusted", "ofdm_image", "imaging", "imaging_chirp",
-         "imaging_chirp_wide")
-#: The chirp imaging scans (module docstring): the presets they run with, the sweep and the
-#: sample rate [Hz] (None: the preset's). 30-50 kHz fills the broadband transducers' -6 dB band;
-#: 20-80 kHz, as RTIS sweeps, needs the paper's ideal transducers and a 250 kHz rate. The TCT40
-#: class (``default``) passes 2 kHz: no sweep.
-CHIRP_SCANS = {
-    "imaging_chirp": (("broadband", "paper"), mitsonar.Chirp(30e3, 50e3, 4e-3), None),
-    "imaging_chirp_wide": (("paper",), mitsonar.Chirp(20e3, 80e3, 4e-3), 250e3)}
+SCANS = ("sequential", "ofdm", "ofdm_trusted", "ofdm_image", "imaging", "imaging_chirp")
+#: The chirp imaging scans (module docstring): the presets they run with and the sweep: 30-50
+#: kHz, the broadband transducers' -6 dB band, over which the trace's centre-frequency element
+#: patterns hold as they do for those transducers' tone bursts (docs/imaging.md). The TCT40 class
+#: (``default``) passes 2 kHz: no sweep.
+CHIRP_SCANS = {"imaging_chirp": (("broadband", "paper"), mitsonar.Chirp(30e3, 50e3, 4e-3))}
 #: Echo sets of one sequential or OFDM simulation (module docstring).
 ECHO_SETS = ("first", "all", "cells")
 #: The lit cone of ``ofdm_trusted``: arrival directions within it of their beam's axis [rad]
@@ -122,7 +119,7 @@ DECODINGS = {"ofdm_trusted": dict(echoes="cells", ghost_margin=0.0, arrival_cone
              "ofdm_image": dict(echoes="image")}
 #: What each scan of one point set reports (``echoes`` in the table).
 SINGLE_SETS = {"ofdm_trusted": "cells", "ofdm_image": "image", "imaging": "image",
-               "imaging_chirp": "image", "imaging_chirp_wide": "image"}
+               "imaging_chirp": "image"}
 #: Further trust thresholds of the imaging scan (``ImagingSettings.min_coherence``) beside its
 #: default: the same images, each threshold's points a strategy of its own,
 #: ``imaging_trust_<threshold>`` (points per second against accuracy along the trade-off).
@@ -143,9 +140,7 @@ MARKERS = {"sequential_first": "s", "sequential_all": "D", "sequential_cells": "
            "ofdm_first": "o", "ofdm_all": "^", "ofdm_cells": "v", "ofdm_trusted": "p",
            "ofdm_image": "X",
            "imaging": "*", "imaging_trust_0.35": "<", "imaging_trust_0.5": ">",
-           "imaging_chirp": "h", "imaging_chirp_trust_0.35": "1", "imaging_chirp_trust_0.5": "2",
-           "imaging_chirp_wide": "H", "imaging_chirp_wide_trust_0.35": "3",
-           "imaging_chirp_wide_trust_0.5": "4"}
+           "imaging_chirp": "h", "imaging_chirp_trust_0.35": "1", "imaging_chirp_trust_0.5": "2"}
 
 
 @dataclass(frozen=True)
@@ -257,9 +252,8 @@ def simulate(scan: str, sonar, trajectory, settings: RunSettings, progress) -> S
             return echo_sets(result.echo_table, result.echo_points_world)
     else:
         if scan in CHIRP_SCANS:  # the same sonar driven by a sweep
-            _, chirp, rate = CHIRP_SCANS[scan]
-            sonar = mitsonar.Sonar(sonar.scene, replace(
-                sonar.config, pulse=chirp, sample_rate=rate or sonar.config.sample_rate))
+            sonar = mitsonar.Sonar(sonar.scene, replace(sonar.config,
+                                                        pulse=CHIRP_SCANS[scan][1]))
         trust = ImagingSettings(min_coherence=min((ImagingSettings.min_coherence,)
                                                   + IMAGING_TRUST))
         imaging = ImagingSonar(sonar, trust, TransmitSettings(

@@ -212,7 +212,7 @@ def test_imaging_quick(tmp_path):
     strategies = [f"{scan}_{e}" for scan in ("sequential", "ofdm")
                   for e in ("first", "all", "cells")] + ["ofdm_trusted", "ofdm_image"] \
         + [f"imaging{t}" for t in trusts]
-    chirped = {(p, f"{scan}{t}"): scan for scan, (allowed, _, _) in chirps.items()
+    chirped = {(p, f"{scan}{t}"): scan for scan, (allowed, _) in chirps.items()
                for p in allowed for t in trusts}
     assert {p for p, _ in chirped} == {"broadband", "paper"}
     assert set(rows) == {(p, s) for p in presets for s in strategies} | set(chirped)

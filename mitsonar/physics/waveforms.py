@@ -76,8 +76,10 @@ class Chirp:
     window), which keeps the spectrum's ripple and range side lobes low.
 
     The trace evaluates element patterns, patch integrals and air absorption at the centre
-    frequency ``frequency`` (as for every waveform); over a sweep of +-25 % about it the pattern
-    of a TCT40-sized piston changes by up to ~2 dB at the field of view's corners.
+    frequency ``frequency``, as for every waveform: over 30-50 kHz (the broadband transducers'
+    band, the same approximation as their tone bursts) a TCT40-sized piston's pattern at the
+    field of view's corner (34 deg) runs from +1.8 to -2.6 dB of its 40 kHz value; a sweep as
+    wide as RTIS's (20-80 kHz) would be far off (-24 dB at 80 kHz against 50 kHz there).
 
     Attributes:
         start: f0, the sweep's first frequency [Hz].
