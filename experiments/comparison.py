@@ -170,11 +170,11 @@ def sonar_run(scene, mode: str, preset: str, trajectory, settings: RunSettings, 
     spec = RepeatedMapSpec(duration=settings.duration, scan_step=settings.step, echoes="all",
                            seed=settings.seed, voxels=VoxelMapSettings(voxel_size=MAP_VOXEL))
     scanned, camera = scan_repeated(sonar, trajectory, spec, progress)
-    starts = np.array([s.frame.start_time for s in scanned])
+    starts = np.array([s.start_time for s in scanned])
     clouds = [build_voxel_map([s for s, t0 in zip(scanned, starts) if t0 <= t + 1e-9], camera,
                               spec).positions for t in checkpoints]
     detected = np.mean(np.concatenate([s.frame.detected for s in scanned]))
-    echoes = sum(len(s.frame.echo_table.point) for s in scanned)
+    echoes = sum(len(s.points) for s in scanned)
     diagnosis = (f"{100 * detected:.0f} % of beams detect, {echoes / len(scanned):.0f} echoes "
                  f"a frame -> {len(clouds[-1])} voxels")
     return clouds, echoes, len(scanned), diagnosis

@@ -9,7 +9,7 @@ import numpy as np
 from mitsonar.cli.arguments import (add_echoes_argument, add_output_argument,
                                     add_preset_argument, add_record_argument, add_scene_argument,
                                     add_trajectory_argument, command_group, trajectory_from_args)
-from mitsonar.recon.repeated import REGISTRATIONS, RepeatedMapSpec, map_repeated
+from mitsonar.recon.repeated import REGISTRATIONS, SCANS, RepeatedMapSpec, map_repeated
 from mitsonar.recon.surfels import (SurfelSettings, map_surfels, map_surfels_along,
                                     save_surfel_map, summary)
 from mitsonar.recon.voxelmap import VoxelMapSettings, save_voxel_figure, save_voxel_ply
@@ -23,8 +23,8 @@ def add_cli(subparsers) -> None:
     sub = command_group(subparsers, "map", help="reconstruction maps")
     r = sub.add_parser("repeated", help="OFDM repeated scanning into a coloured voxel map",
                        description="Drive the scene's default trajectory (or the waypoints "
-                                   "given) firing OFDM frames back to back, colour the points "
-                                   "from the camera and voxelise them.")
+                                   "given) firing OFDM frames (or single-ping images) back to "
+                                   "back, colour the points from the camera and voxelise them.")
     add_scene_argument(r)
     add_output_argument(r)
     add_trajectory_argument(r)
@@ -37,6 +37,14 @@ def add_cli(subparsers) -> None:
     add_preset_argument(r)
     r.add_argument("--broadband", action="store_true",
                    help="broadband transducers (20 kHz at -6 dB) instead of the 2 kHz TCT40 class")
+    r.add_argument("--scan", choices=SCANS, default="ofdm",
+                   help="OFDM frames back to back ('ofdm', the paper's) or single-ping receive "
+                        "images, one per listening cycle, a camera image every 0.2 s "
+                        "('imaging') (default: ofdm)")
+    r.add_argument("--chirp", action="store_true",
+                   help="drive the transmission with a 4 ms 30-50 kHz frequency sweep instead "
+                        "of the tone burst (needs --broadband or --preset paper; with --scan "
+                        "imaging, the most points per second: docs/imaging.md)")
     r.add_argument("--registration", choices=REGISTRATIONS, default="beam",
                    help="pose of the points: each beam's pose at firing ('beam') or one odometry "
                         "pose per frame ('frame', the paper's) (default: beam)")
@@ -83,16 +91,26 @@ def _run_repeated(args) -> int:
     from tqdm import tqdm
 
     from mitsonar.physics.transducer import Transducer
+    from mitsonar.physics.waveforms import Chirp
 
     config = SonarConfig.preset(args.preset)
     if args.broadband:
         config = replace(config, transducer=Transducer.broadband())
+    if args.chirp:
+        if config.transducer_response and not args.broadband:
+            raise ValueError("--chirp needs --broadband or --preset paper: the TCT40 class "
+                             "transducers pass 2 kHz, not a 20 kHz sweep")
+        config = replace(config, pulse=Chirp())
+    if args.record is not None and args.scan != "ofdm":
+        raise ValueError("--record needs --scan ofdm: single-ping images are not recorded yet")
     trajectory, driven = _drive(args)
     spec = RepeatedMapSpec(frames=args.frames, duration=driven, scan_step=np.radians(args.step),
                            voxels=VoxelMapSettings(voxel_size=args.voxel),
-                           registration=args.registration, echoes=args.echoes, seed=args.seed)
+                           registration=args.registration, echoes=args.echoes, seed=args.seed,
+                           scan=args.scan)
     sonar = Sonar(args.scene, config)
-    with tqdm(desc="OFDM frames", unit="frame", file=sys.stderr) as bar:
+    label = "OFDM frames" if args.scan == "ofdm" else "image frames"
+    with tqdm(desc=label, unit="frame", file=sys.stderr) as bar:
         def step(_, total):
             bar.total = total
             bar.update()
@@ -100,10 +118,11 @@ def _run_repeated(args) -> int:
         voxels, positions, frames = map_repeated(sonar, trajectory, spec, step)
     save_voxel_ply(args.out / "voxel_map.ply", voxels)
     save_voxel_figure(args.out / "voxel_map.png", voxels, positions,
-                      title=f"{args.scene.parent.name}: {len(frames)} OFDM frames")
-    echoes = sum(len(s.frame.echo_table) for s in frames)
-    print(f"{echoes} points ({args.echoes} echoes) from {len(frames)} frames -> {len(voxels)} "
-          f"voxels; wrote {args.out}/voxel_map.ply and voxel_map.png (top, side and 3-D views).")
+                      title=f"{args.scene.parent.name}: {len(frames)} {label}")
+    points = sum(len(s.points) for s in frames)
+    kept = f"{args.echoes} echoes" if args.scan == "ofdm" else \
+        f"{sum(len(s.images) for s in frames)} images"
+    print(f"{points} points ({kept}) from {len(frames)} frames -> {len(voxels)} voxels; wrote {args.out}/voxel_map.ply and voxel_map.png (top, side and 3-D views).")
     if args.record is not None:
         from mitsonar.data.map_mcap import record_repeated
         from mitsonar.data.mcap_recorder import describe

@@ -61,6 +61,9 @@ class RunTimeline:
 def record_repeated(path, scanned, voxels, trajectory: Trajectory, seed: int = 0) -> dict:
     """Record a repeated-scanning run (the frames and voxel map of
     :func:`~mitsonar.recon.repeated.map_repeated`) as ``path``; returns the messages per topic."""
+    if any(s.frame is None for s in scanned):
+        raise ValueError("recording a repeated-scanning run needs OFDM frames (scan 'ofdm'); "
+                         "single-ping images are not recorded yet")
     recorder = McapRecorder()
     camera = CameraModel().at_resolution(scanned[0].image.shape[1])
     recorder.static_frames(0.0, Pose.sensor_mount(), camera.camera_from_sensor())

@@ -1,6 +1,12 @@
 """Repeated-scanning maps (paper III-E): OFDM frames along a trajectory -> points coloured by the
 camera -> world frame by (12) -> outlier removal -> coloured voxel map (PLY + PNG).
 
+Scans (``RepeatedMapSpec.scan``): "ofdm" (default), the paper's 117-beam OFDM frames back to
+back; "imaging", single-ping receive images back to back (:class:`~mitsonar.sensors.
+imaging_sonar.ImagingSonar`, one per listening cycle), grouped under one camera image every
+``IMAGE_FRAME`` (docs/imaging.md: driven by a frequency sweep they give the most points per
+second).
+
 Registration. The beams of a 208.5 ms frame leave from poses up to v x 0.2 m apart (and up to
 6 deg apart while the robot turns at 30 deg/s). ``registration="beam"`` (default) registers
 each beam with its own pose at firing (motion compensation; it needs odometry at the cycle
@@ -34,8 +40,9 @@ import numpy as np
 
 from mitsonar.sensors.camera import CameraModel, CameraRenderer
 from mitsonar.frames import Pose
+from mitsonar.sensors.imaging_sonar import ImagingSonar, TransmitSettings
 from mitsonar.sensors.ofdm_sonar import Frame, OfdmSonar, pose_along
-from mitsonar.sensors.sonar import Sonar
+from mitsonar.sensors.sonar import Sonar, beam_seed
 from mitsonar.sensors.trajectory import Trajectory
 from mitsonar.signal.detection import ECHO_MODES, OFF_BEAM_MODES, DetectionSettings
 from mitsonar.validation import check_positive
@@ -43,6 +50,10 @@ from mitsonar.recon.voxelmap import VoxelMap, VoxelMapSettings, colourise
 
 
 REGISTRATIONS = ("frame", "beam")
+SCANS = ("ofdm", "imaging")
+#: Images of the "imaging" scan share one camera image per this much time [s] (5 Hz, about the
+#: OFDM frames' rate): a repeated-mode frame of ``ceil(IMAGE_FRAME / cycle)`` images.
+IMAGE_FRAME = 0.2
 
 
 @dataclass(frozen=True)
@@ -74,6 +85,9 @@ class RepeatedMapSpec:
             beam traced in its own 20 deg cone (``OfdmSonar``'s ``shared_hits``,
             docs/performance.md).
         seed: seeds every frame's noise and diffuse phases.
+        scan: "ofdm" or "imaging" (module docstring); ``scan_step``, ``echoes``, ``off_beam``
+            and ``shared_hits`` concern OFDM frames only, ``transmit`` images only.
+        transmit: the images' wide transmission and its trace.
     """
 
     frames: int | None = None
@@ -88,6 +102,8 @@ class RepeatedMapSpec:
     off_beam: bool | None = None
     shared_hits: bool = True
     seed: int = 0
+    scan: str = "ofdm"
+    transmit: TransmitSettings = TransmitSettings()
 
     def __post_init__(self):
         if self.frames is not None and (int(self.frames) != self.frames or self.frames < 1):
@@ -97,6 +113,8 @@ class RepeatedMapSpec:
         check_positive("RepeatedMapSpec.scan_step [rad]", self.scan_step)
         if self.interval is not None:
             check_positive("RepeatedMapSpec.interval [s]", self.interval)
+        if self.scan not in SCANS:
+            raise ValueError(f"RepeatedMapSpec.scan must be one of {SCANS}, got {self.scan!r}")
         if self.registration not in REGISTRATIONS:
             raise ValueError(f"RepeatedMapSpec.registration must be one of {REGISTRATIONS}, got "
                              f"{self.registration!r}")
@@ -117,57 +135,83 @@ class RepeatedMapSpec:
 
 @dataclass(frozen=True)
 class ScannedFrame:
-    """One OFDM frame and the camera image taken at its start.
+    """One OFDM frame, or the images of one camera period, and the camera image taken at its
+    start.
 
     Attributes:
-        frame: the decoded frame (each beam's pose at firing included).
+        points: (N, 3) every point in the sensor frame [m].
+        world_from_sensor: (N, 4, 4) the pose each point was measured from.
+        start_time: the frame's start on the trajectory's clock [s].
         image: (H, W, 3) linear RGB.
         pose: world-from-sensor pose of the head at the frame's start (odometry stamp, image).
+        frame: the decoded OFDM frame (None for images).
+        images: the single-ping images (empty for an OFDM frame).
     """
 
-    frame: Frame
+    points: np.ndarray
+    world_from_sensor: np.ndarray
+    start_time: float
     image: np.ndarray
     pose: Pose
+    frame: Frame | None = None
+    images: tuple = ()
 
 
 def scan_repeated(sonar: Sonar, trajectory: Trajectory, spec: RepeatedMapSpec = RepeatedMapSpec(),
                   progress=None) -> tuple[list[ScannedFrame], CameraModel]:
-    """Fire OFDM frames along the trajectory, ``spec.interval`` apart (default: back to back),
-    with an image each: ``spec.frames`` of them, or every frame that starts within the first
-    ``spec.duration`` [s] (default: the whole trajectory). ``progress`` is called with (frame
-    index, number of frames) after each."""
-    detection = spec.detection(sonar.config.detection)
-    ofdm = OfdmSonar(Sonar(sonar.scene, replace(sonar.config, detection=detection)),
-                     shared_hits=spec.shared_hits)
-    schedule = ofdm.schedule(sonar.fov_grid(spec.scan_step))
-    interval = schedule.frame_duration if spec.interval is None else spec.interval
-    if interval < schedule.frame_duration:
+    """Fire OFDM frames (or groups of images, ``spec.scan``) along the trajectory,
+    ``spec.interval`` apart (default: back to back), with a camera image each: ``spec.frames``
+    of them, or every frame that starts within the first ``spec.duration`` [s] (default: the
+    whole trajectory). ``progress`` is called with (frame index, number of frames) after each."""
+    pose_at = pose_along(trajectory)
+    if spec.scan == "ofdm":
+        detection = spec.detection(sonar.config.detection)
+        ofdm = OfdmSonar(Sonar(sonar.scene, replace(sonar.config, detection=detection)),
+                         shared_hits=spec.shared_hits)
+        schedule = ofdm.schedule(sonar.fov_grid(spec.scan_step))
+        duration = schedule.frame_duration
+
+        def fire(start: float, k: int):
+            frame = ofdm.frame(schedule, pose_at, start_time=start, seed=spec.seed + k)
+            return dict(points=frame.echo_table.point,
+                        world_from_sensor=frame.echo_world_from_sensor, frame=frame)
+    else:
+        imaging = ImagingSonar(sonar, transmit=spec.transmit)
+        cycle = imaging.cycle_time
+        per_frame = int(np.ceil(IMAGE_FRAME / cycle - 1e-9))
+        duration = per_frame * cycle
+
+        def fire(start: float, k: int):
+            images = tuple(imaging.image(pose_at(start + i * cycle), seed=beam_seed(
+                spec.seed + k, i)) for i in range(per_frame))
+            poses = [np.broadcast_to(im.pose.matrix(), (len(im), 4, 4)) for im in images]
+            return dict(points=np.concatenate([im.points_sensor for im in images]),
+                        world_from_sensor=np.concatenate(poses), images=images)
+    interval = duration if spec.interval is None else spec.interval
+    if interval < duration:
         raise ValueError(f"RepeatedMapSpec.interval [s] must be at least the frame duration "
-                         f"({schedule.frame_duration:.4f} s), got {interval}")
+                         f"({duration:.4f} s), got {interval}")
     count = spec.frames if spec.frames is not None else \
         max(int(np.floor(trajectory.driven(spec.duration) / interval + 1e-9)), 1)
     camera = CameraRenderer(sonar.scene, CameraModel(spp=spec.spp).at_resolution(spec.image_width))
-    pose_at = pose_along(trajectory)
     scanned = []
     for k in range(count):  # frames follow each other in time
         start = k * interval
-        frame = ofdm.frame(schedule, pose_at, start_time=start, seed=spec.seed + k)
         pose = pose_at(start)
-        scanned.append(ScannedFrame(frame, camera.render(pose, seed=spec.seed + k).rgb, pose))
+        scanned.append(ScannedFrame(start_time=start, image=camera.render(
+            pose, seed=spec.seed + k).rgb, pose=pose, **fire(start, k)))
         if progress is not None:
             progress(k, count)
     return scanned, camera.model
 
 
 def build_voxel_map(scanned, camera_model: CameraModel, spec: RepeatedMapSpec = RepeatedMapSpec()):
-    """Colour, register (``spec.registration``) and voxelise every echo of scanned frames ->
+    """Colour, register (``spec.registration``) and voxelise every point of scanned frames ->
     VoxelCloud."""
     voxel_map = VoxelMap()
     for s in scanned:
-        frame = s.frame
-        poses = frame.echo_world_from_sensor if spec.registration == "beam" else s.pose.matrix()
-        voxel_map.add_frame(colourise(frame.echo_table.point, poses, s.image, camera_model,
-                                      s.pose.matrix()))
+        poses = s.world_from_sensor if spec.registration == "beam" else s.pose.matrix()
+        voxel_map.add_frame(colourise(s.points, poses, s.image, camera_model, s.pose.matrix()))
     return voxel_map.voxelise(spec.voxels)
 
 

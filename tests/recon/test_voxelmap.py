@@ -398,3 +398,45 @@ def test_repeated_frames_are_spread_by_the_interval(scene_file):
         map_repeated(sonar, trajectory, RepeatedMapSpec(frames=2, interval=0.1))
     with pytest.raises(ValueError, match="interval"):
         RepeatedMapSpec(interval=-1.0)
+
+
+def test_repeated_imaging_frames_group_images_under_one_camera_image(scene_file):
+    """The "imaging" scan: frame k holds ceil(0.2 s / cycle) single-ping images, image i fired
+    i cycles after the frame's start from its own pose and seed; the frame's points are its
+    images' points, each with its image's pose, so registered they are the images' world
+    points; the voxel map holds them. An unknown scan is refused."""
+    from mitsonar.recon.repeated import IMAGE_FRAME, RepeatedMapSpec, map_repeated
+    from mitsonar.sensors.imaging_sonar import ImagingSonar, TransmitSettings
+    from mitsonar.sensors.ofdm_sonar import pose_along
+    from mitsonar.sensors.sonar import beam_seed
+
+    material = material_xml("w", preset="concrete")
+    wall = rectangle_xml("w", (2.0, 0, 0.5), (0, -90, 0), size=(4, 4))
+    paper = mitsonar.SonarConfig.preset("paper")
+    config = mitsonar.SonarConfig(medium=paper.medium, trace=paper.trace,
+                                  transducer_response=False, pulse=mitsonar.Chirp())
+    sonar = mitsonar.Sonar(scene_file("wall", material, wall), config)
+    trajectory = mitsonar.Trajectory(np.array([[0.0, 0.0, 0.0], [2.0, 0.0, 0.0]]), speed=0.2)
+    transmit = TransmitSettings(rays_per_axis=24)
+    spec = RepeatedMapSpec(frames=2, scan="imaging", transmit=transmit, image_width=32, spp=1,
+                           voxels=VoxelMapSettings(voxel_size=0.05, outlier_neighbours=0))
+    voxels, positions, scanned = map_repeated(sonar, trajectory, spec)
+    imaging = ImagingSonar(sonar, transmit=transmit)
+    per_frame = int(np.ceil(IMAGE_FRAME / imaging.cycle_time))
+    pose_at = pose_along(trajectory)
+    assert [len(s.images) for s in scanned] == [per_frame] * 2
+    second = scanned[1]
+    assert second.start_time == pytest.approx(per_frame * imaging.cycle_time)
+    for i in (0, per_frame - 1):
+        t = second.start_time + i * imaging.cycle_time
+        np.testing.assert_allclose(second.images[i].pose.matrix(), pose_at(t).matrix())
+        again = imaging.image(pose_at(t), seed=beam_seed(spec.seed + 1, i))
+        np.testing.assert_array_equal(again.points_sensor, second.images[i].points_sensor)
+    world = np.einsum("nij,nj->ni", second.world_from_sensor[:, :3, :3], second.points) \
+        + second.world_from_sensor[:, :3, 3]
+    np.testing.assert_allclose(world, np.concatenate([im.points_world for im in second.images]),
+                               atol=1e-12)
+    off = np.abs(world[:, 0] - 2.0)  # the wall 1.9 m ahead
+    assert len(world) > 10 and len(voxels.positions) > 0 and np.median(off) < 0.02
+    with pytest.raises(ValueError, match="scan"):
+        RepeatedMapSpec(scan="sweep")
