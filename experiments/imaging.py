@@ -20,7 +20,7 @@ it was measured from (no odometry drift):
 * imaging_chirp: the same single-ping images with the transmit element driven by a 4 ms
   30-50 kHz linear sweep instead of the tone burst (``Chirp``, :data:`CHIRP_SCANS`), as RTIS
   images (``paper`` and ``broadband``); the cycle grows by the sweep's length (33.9 ms with the
-  paper preset, 37.5 ms broadband).
+  paper preset, 34.0 ms broadband: 3.5 ms more than their bursts' cycles).
 * ofdm_trusted: the same OFDM frames (poses and seeds), every echo and range cell trusted by
   their arrival directions alone: no side-lobe check along the beam axis, one plane wave from
   the measured direction explaining ``min_coherence`` of the channels' power (the check's
