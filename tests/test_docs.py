@@ -51,6 +51,8 @@ QUICK: list[tuple[str, dict | str]] = [
      {"--fov": "20x10", "--step": "10"}),
     ("mitsonar map repeated scenes/office/scene.xml --broadband --out out/office_map",
      {"--frames": "1", "--step": "20"}),
+    ("mitsonar map repeated scenes/workshop/scene.xml --scan imaging --chirp --broadband --out "
+     "out/workshop_images", {"--frames": "1"}),
     ("mitsonar map surfel scenes/structure/scene.xml --preset paper --out out/structure_surfels",
      {"--duration": "0.3", "--width": "160", "--spp": "1"}),
     ("mitsonar evaluate out/demo/points.ply scenes/room_glass/scene.xml", {"--spacing": "0.1"}),
