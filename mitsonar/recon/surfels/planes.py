@@ -6,9 +6,10 @@ the :mod:`mitsonar.recon.surfels` docstring."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, fields, replace
 
 import numpy as np
+from scipy.sparse import coo_matrix
 
 from mitsonar.recon.surfels.settings import SurfelSettings
 
@@ -326,30 +327,64 @@ def _on_planes(points, viewpoint, groups: PlaneGroups, settings: SurfelSettings)
     return np.abs(points @ groups.normals.T - groups.offsets) <= settings.merge_sigmas * sigma
 
 
-def _crease_residuals(normals, offsets, creases):
-    """Distances [pixels] (2 per crease) of the detected segment's ends from the image of the
-    line where its two planes meet; creases: list of (camera, world-from-camera pose, segment
-    (4,), group a, group b)."""
-    out = np.zeros(2 * len(creases))
-    for c, (camera, camera_pose, segment, ga, gb) in enumerate(creases):
-        line = np.cross(normals[ga], normals[gb])
-        norm = np.linalg.norm(line)
-        if norm < 1e-9:  # parallel planes: no crease
-            out[2 * c: 2 * c + 2] = 1e3
-            continue
-        line /= norm
-        o = camera_pose.translation
-        p0 = np.linalg.solve(np.array([normals[ga], normals[gb], line]),
-                             [offsets[ga], offsets[gb], line @ o])  # nearest to the camera
-        to_camera = camera_pose.inverse()
-        h = np.cross(to_camera.transform_points(p0[None])[0],
-                     to_camera.transform_vectors(line[None])[0])  # image line, normalised coords
-        f = camera.focal_pixels
-        uc, vc = camera.principal_point
-        ends = np.asarray(segment, float).reshape(2, 2)
-        xy = np.column_stack([(ends[:, 0] - uc) / f, (ends[:, 1] - vc) / f, np.ones(2)])
-        out[2 * c: 2 * c + 2] = f * (xy @ h) / max(np.hypot(h[0], h[1]), 1e-12)
-    return out
+@dataclass(frozen=True)
+class Creases:
+    """Image creases as arrays (C = number of creases): the groups on either side ``a``, ``b``
+    (C,), the world-from-camera rotations (C, 3, 3) and camera positions (C, 3) [m], focal
+    lengths (C,) and principal points (C, 2) [pixels], and the segments' ends (C, 2, 2)
+    [pixels]."""
+
+    a: np.ndarray
+    b: np.ndarray
+    rotation: np.ndarray
+    origin: np.ndarray
+    focal: np.ndarray
+    principal: np.ndarray
+    ends: np.ndarray
+
+    @classmethod
+    def of(cls, creases) -> "Creases":
+        """From a list of (camera, world-from-camera pose, segment (4,), group a, group b)."""
+        c = list(creases)
+        return cls(np.array([k[3] for k in c], int), np.array([k[4] for k in c], int),
+                   np.array([k[1].rotation for k in c]).reshape(-1, 3, 3),
+                   np.array([k[1].translation for k in c]).reshape(-1, 3),
+                   np.array([k[0].focal_pixels for k in c], float),
+                   np.array([k[0].principal_point for k in c], float).reshape(-1, 2),
+                   np.array([k[2] for k in c], float).reshape(-1, 2, 2))
+
+    def __len__(self) -> int:
+        return len(self.a)
+
+    def take(self, keep) -> "Creases":
+        """The creases at ``keep`` (indices or mask)."""
+        return Creases(*(getattr(self, f.name)[keep] for f in fields(self)))
+
+
+def _crease_residuals(normals, offsets, creases: Creases) -> np.ndarray:
+    """Distances [pixels] (C, 2) of each detected segment's ends from the image of the line
+    where its two planes meet (1e3 where the planes are parallel: no crease)."""
+    if not len(creases):
+        return np.zeros((0, 2))
+    na, nb = normals[creases.a], normals[creases.b]
+    line = np.cross(na, nb)
+    norm = np.linalg.norm(line, axis=1)
+    parallel = norm < 1e-9
+    line = np.where(parallel[:, None], [0.0, 0.0, 1.0], line) / np.where(parallel, 1.0,
+                                                                         norm)[:, None]
+    o = creases.origin
+    system = np.stack([np.where(parallel[:, None], [1.0, 0.0, 0.0], na),
+                       np.where(parallel[:, None], [0.0, 1.0, 0.0], nb), line], axis=1)
+    rhs = np.column_stack([offsets[creases.a], offsets[creases.b], np.einsum("ci,ci->c", line, o)])
+    p0 = np.linalg.solve(system, rhs[..., None])[..., 0]  # on the crease, nearest the camera
+    r = creases.rotation  # camera frame: R^T (x - o)
+    h = np.cross(np.einsum("cji,cj->ci", r, p0 - o), np.einsum("cji,cj->ci", r, line))
+    f = creases.focal[:, None]
+    xy = np.concatenate([(creases.ends - creases.principal[:, None]) / f[..., None],
+                         np.ones(creases.ends.shape[:2] + (1,))], axis=2)
+    out = f * np.einsum("cei,ci->ce", xy, h) / np.maximum(np.hypot(h[:, 0], h[:, 1]),
+                                                           1e-12)[:, None]
+    return np.where(parallel[:, None], 1e3, out)
 
 
 def refine_planes(groups: PlaneGroups, points, label, viewpoints, creases,
@@ -373,9 +408,9 @@ def refine_planes(groups: PlaneGroups, points, label, viewpoints, creases,
     n_groups = len(groups)
     if n_groups == 0 or len(points) == 0:
         return groups
+    creases = Creases.of(creases)
     start = _crease_residuals(groups.normals, groups.offsets, creases)
-    keep = [c for k, c in enumerate(creases)
-            if np.max(np.abs(start[2 * k: 2 * k + 2])) <= settings.crease_gate]
+    keep = creases.take(np.max(np.abs(start), axis=1, initial=0.0) <= settings.crease_gate)
 
     def unpack(x):
         v = x.reshape(n_groups, 4)
@@ -387,10 +422,21 @@ def refine_planes(groups: PlaneGroups, points, label, viewpoints, creases,
         n, d = unpack(x)
         r_points = (np.einsum("pc,pc->p", points, n[label]) - d[label]) / sigma
         return np.concatenate([r_points,
-                               _crease_residuals(n, d, keep) / settings.crease_sigma])
+                               _crease_residuals(n, d, keep).ravel() / settings.crease_sigma])
 
+    # Which parameters each residual depends on: a point its group's 4, a crease's two ends the
+    # 8 of its two groups; the finite-difference Jacobian then perturbs independent columns
+    # together instead of one at a time.
+    label = np.asarray(label)
+    owners = np.concatenate([np.column_stack([label, label]),
+                             np.repeat(np.column_stack([keep.a, keep.b]), 2, axis=0)])
+    cols = (4 * owners[:, :, None] + np.arange(4)).reshape(len(owners), 8)
+    sparsity = coo_matrix((np.ones(cols.size), (np.repeat(np.arange(len(owners)), 8),
+                                                cols.ravel())),
+                          shape=(len(owners), 4 * n_groups)).tocsr()
     x0 = np.column_stack([groups.normals, groups.offsets]).ravel()
-    n, d = unpack(least_squares(residuals, x0, loss="soft_l1", f_scale=2.0).x)
+    n, d = unpack(least_squares(residuals, x0, loss="soft_l1", f_scale=2.0,
+                                jac_sparsity=sparsity).x)
     flip = np.where(np.einsum("gc,gc->g", n, groups.normals) < 0, -1.0, 1.0)
     n, d = n * flip[:, None], d * flip
     return replace(groups, normals=n, offsets=d)
