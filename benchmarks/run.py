@@ -45,8 +45,6 @@ FULL_RATE = dict(sample_rate=400e3, narrowband_bandwidth=0.0, baseband=False, ba
 #: Broadband transducers, as ``mitsonar map repeated --broadband`` chooses them: every element
 #: pair synthesised (no narrow-band merge).
 BROADBAND = Transducer.broadband()
-#: The single-ping image's sweep (behind broadband transducers): experiments/imaging.py's.
-CHIRP = mitsonar.Chirp(30e3, 50e3, 4e-3)
 
 
 def _timed(fn, repeat: int = 1):
@@ -230,10 +228,11 @@ def main(argv=None) -> int:
         print(f"  {mode:<32s} {seconds[mode]:12.4g} s/frame  {len(frame.echo_table):5d} echoes  "
               f"ratio {seconds[mode] / seconds['first']:.3g} (goal: at most 2)")
         lines.append((f"echo mode {mode}", seconds[mode], seconds[mode] / seconds["first"]))
-    for name, drive in (("", sonar.config.pulse), (", 30-50 kHz chirp", CHIRP)):
+    # ... and one driven by the 30-50 kHz sweep (mitsonar.Chirp()'s) behind broadband transducers
+    for name, drive, transducer in (("", sonar.config.pulse, sonar.config.transducer),
+                                    (", 30-50 kHz chirp", mitsonar.Chirp(), BROADBAND)):
         imager = ImagingSonar(mitsonar.Sonar(sonar.scene, replace(
-            sonar.config, pulse=drive, transducer=BROADBAND if drive is CHIRP else
-            sonar.config.transducer)))
+            sonar.config, pulse=drive, transducer=transducer)))
         t_image, image = _timed(lambda: imager.image(pose))
         print(f"  {'single-ping receive image' + name:<32s} {t_image:12.4g} s/image  "
               f"{len(image):5d} points  (one image per {imager.cycle_time * 1e3:.1f} ms "

@@ -108,7 +108,7 @@ SCANS = ("sequential", "ofdm", "ofdm_trusted", "ofdm_image", "imaging", "imaging
 #: kHz, the broadband transducers' -6 dB band, over which the trace's centre-frequency element
 #: patterns hold as they do for those transducers' tone bursts (docs/imaging.md). The TCT40 class
 #: (``default``) passes 2 kHz: no sweep.
-CHIRP_SCANS = {"imaging_chirp": (("broadband", "paper"), mitsonar.Chirp(30e3, 50e3, 4e-3))}
+CHIRP_SCANS = {"imaging_chirp": (("broadband", "paper"), mitsonar.Chirp())}
 #: Echo sets of one sequential or OFDM simulation (module docstring).
 ECHO_SETS = ("first", "all", "cells")
 #: The lit cone of ``ofdm_trusted``: arrival directions within it of their beam's axis [rad]
@@ -357,7 +357,7 @@ def run_scene(name: str, presets, scans, settings: RunSettings) -> list[dict]:
               f"view {100 * in_view:.1f} % ({driven:.1f} s driven)", file=sys.stderr)
         for preset, sonar in sonars.items():
             for scan in scans:
-                if preset not in CHIRP_SCANS.get(scan, (PRESETS,))[0]:
+                if scan in CHIRP_SCANS and preset not in CHIRP_SCANS[scan][0]:
                     continue  # a sweep the preset's transducers cannot pass
                 bar.set_description(f"{name} {preset}: {scan} (stride {settings.stride})")
 

@@ -408,6 +408,7 @@ def refine_planes(groups: PlaneGroups, points, label, viewpoints, creases,
     n_groups = len(groups)
     if n_groups == 0 or len(points) == 0:
         return groups
+    label = np.asarray(label)
     creases = Creases.of(creases)
     start = _crease_residuals(groups.normals, groups.offsets, creases)
     keep = creases.take(np.max(np.abs(start), axis=1, initial=0.0) <= settings.crease_gate)
@@ -427,7 +428,6 @@ def refine_planes(groups: PlaneGroups, points, label, viewpoints, creases,
     # Which parameters each residual depends on: a point its group's 4, a crease's two ends the
     # 8 of its two groups; the finite-difference Jacobian then perturbs independent columns
     # together instead of one at a time.
-    label = np.asarray(label)
     owners = np.concatenate([np.column_stack([label, label]),
                              np.repeat(np.column_stack([keep.a, keep.b]), 2, axis=0)])
     cols = (4 * owners[:, :, None] + np.arange(4)).reshape(len(owners), 8)
