@@ -21,7 +21,8 @@ room_glass's planes grow wrongly). Repeated mode adds broadband transducers (20 
 the OFDM tones span 32-48 kHz), a 5 deg beam grid (the paper's 13 x 9 beams per frame), every
 echo of each beam (``RepeatedMapSpec.echoes='all'``, the most complete at the same accuracy in
 experiments/imaging.py) and 5 cm voxels (the paper's voxel map); each beam is registered with its
-own pose.
+own pose. ``--repeated-scan chirp`` fires single-ping receive images driven by a 30-50 kHz sweep
+instead (six per camera image, each point registered with its image's pose; docs/imaging.md).
 
 Scoring (:func:`mitsonar.evaluation.metrics.evaluate`, 2 cm threshold). Every cloud is first
 thinned to one point per 1 cm voxel, the ground truth's resolution (:class:`VoxelThinner`: a
@@ -44,6 +45,8 @@ reconstruction <scene>/<sensor>[_<mode>_<preset>].ply (points with their distanc
 
     .venv/bin/python experiments/comparison.py --out out/comparison            # hours, 2 cores
     .venv/bin/python experiments/comparison.py --quick --out out/comparison    # ~2 min
+    .venv/bin/python experiments/comparison.py --scenes workshop --presets default \
+        --baselines lidar --repeated-scan chirp --out out/comparison_chirp   # ~1 h a scene
 """
 
 from __future__ import annotations
@@ -104,6 +107,10 @@ class RunSettings:
         baselines: keys of :data:`BASELINES` driven beside the sonar.
         checkpoints: completeness is measured this many times along the drive.
         seed: seeds the sonar, the baselines' noise, the samples and the thinning.
+        repeated_scan: what repeated mode fires: "ofdm" (OFDM frames, every echo of each beam)
+            or "chirp" (single-ping receive images driven by a 30-50 kHz frequency sweep,
+            ``RepeatedMapSpec.scan='imaging'``); the rows' mode reads "repeated" or
+            "repeated-chirp".
     """
 
     duration: float | None
@@ -115,6 +122,7 @@ class RunSettings:
     baselines: tuple
     checkpoints: int
     seed: int
+    repeated_scan: str = "ofdm"
 
 
 @dataclass(frozen=True)
@@ -165,18 +173,26 @@ def sonar_run(scene, mode: str, preset: str, trajectory, settings: RunSettings, 
         diagnosis = (f"{len(final.surfel_pose)} surfels registered ({rejected}), "
                      f"{len(final.groups)} planes")
         return clouds, len(clouds[-1]), len(final.scans), diagnosis
-    broadband = replace(config, transducer=mitsonar.Transducer.broadband())
-    sonar = mitsonar.Sonar(scene, broadband)
+    chirp = settings.repeated_scan == "chirp"
+    config = replace(config, transducer=mitsonar.Transducer.broadband(),
+                     pulse=mitsonar.Chirp() if chirp else config.pulse)
+    sonar = mitsonar.Sonar(scene, config)
     spec = RepeatedMapSpec(duration=settings.duration, scan_step=settings.step, echoes="all",
-                           seed=settings.seed, voxels=VoxelMapSettings(voxel_size=MAP_VOXEL))
+                           seed=settings.seed, voxels=VoxelMapSettings(voxel_size=MAP_VOXEL),
+                           scan="imaging" if chirp else "ofdm")
     scanned, camera = scan_repeated(sonar, trajectory, spec, progress)
     starts = np.array([s.start_time for s in scanned])
     clouds = [build_voxel_map([s for s, t0 in zip(scanned, starts) if t0 <= t + 1e-9], camera,
                               spec).positions for t in checkpoints]
-    detected = np.mean(np.concatenate([s.frame.detected for s in scanned]))
     echoes = sum(len(s.points) for s in scanned)
-    diagnosis = (f"{100 * detected:.0f} % of beams detect, {echoes / len(scanned):.0f} echoes "
-                 f"a frame -> {len(clouds[-1])} voxels")
+    if chirp:
+        images = sum(len(s.images) for s in scanned)
+        diagnosis = (f"{images} images, {echoes / images:.0f} points an image -> "
+                     f"{len(clouds[-1])} voxels")
+    else:
+        detected = np.mean(np.concatenate([s.frame.detected for s in scanned]))
+        diagnosis = (f"{100 * detected:.0f} % of beams detect, {echoes / len(scanned):.0f} "
+                     f"echoes a frame -> {len(clouds[-1])} voxels")
     return clouds, echoes, len(scanned), diagnosis
 
 
@@ -237,16 +253,18 @@ def run_scene(name: str, path: Path, modes, settings: RunSettings) -> tuple[list
                             mitsonar.SonarConfig(), IN_VIEW_PERIOD)  # every preset's view
     recs = []
     for mode in modes:
+        shown = "repeated-chirp" if (mode, settings.repeated_scan) == ("repeated", "chirp") \
+            else mode
         for preset in settings.presets:
             start = time.perf_counter()
-            with tqdm(desc=f"{name}: sonar ({mode}, {preset})", file=sys.stderr) as bar:
+            with tqdm(desc=f"{name}: sonar ({shown}, {preset})", file=sys.stderr) as bar:
                 def step(*at):  # surfel mode: the time driven [s]; repeated: (frame, frames)
                     bar.total = round(driven, 1) if mode == "surfel" else at[1]
                     bar.update((round(at[0], 1) - bar.n) if mode == "surfel" else 1)
 
                 clouds, raw, frames, diagnosis = sonar_run(scene, mode, preset, trajectory,
                                                            settings, checkpoints, step)
-            recs.append(score("sonar", mode, preset, clouds, raw, frames,
+            recs.append(score("sonar", shown, preset, clouds, raw, frames,
                               time.perf_counter() - start, truth, diagnosis))
     for key in settings.baselines:
         start = time.perf_counter()
@@ -304,6 +322,9 @@ def parse_args(argv):
     parser.add_argument("--spp", type=int, default=8,
                         help="surfel camera samples per pixel (default 8, denoised)")
     parser.add_argument("--step", type=float, default=5.0, help="OFDM beam grid step [deg]")
+    parser.add_argument("--repeated-scan", choices=("ofdm", "chirp"), default="ofdm",
+                        help="repeated mode fires OFDM frames (ofdm, default) or single-ping "
+                             "images driven by a 30-50 kHz sweep (chirp, docs/imaging.md)")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--quick", action="store_true",
                         help="room_glass and workshop, their first 0.3 s, 320 px surfel images, "
@@ -326,7 +347,7 @@ def parse_args(argv):
 def main(argv=None) -> int:
     args, presets, baselines = parse_args(argv)
     settings = RunSettings(args.duration, args.width, args.spp, np.radians(args.step), 0.01,
-                           presets, baselines, args.checkpoints, args.seed)
+                           presets, baselines, args.checkpoints, args.seed, args.repeated_scan)
     scenes = args.scenes
     if args.quick:
         scenes = "room_glass,workshop" if args.scenes == ",".join(MODES) else args.scenes
