@@ -152,9 +152,11 @@ def heard_checks(scans) -> HeardChecks | None:
 
 
 def _support(scan: PoseScan, regions, groups: PlaneGroups, surfel_uv, surfel_group, pixels,
-             settings: SurfelSettings, checks: HeardChecks | None) -> np.ndarray | None:
+             settings: SurfelSettings, checks: HeardChecks | None,
+             candidates: np.ndarray) -> np.ndarray | None:
     """(..., G) True where the sonar evidence supports growing each plane at ``pixels`` (..., 2)
-    of ``scan``'s image, None without check echoes (everything allowed).
+    of ``scan``'s image, None without check echoes (everything allowed). Only the ``candidates``
+    (..., G) (where a plane may grow at all) are looked at; elsewhere the result is False.
 
     Evidence lives in pixels: every projected surfel point (``surfel_uv`` (P, 2), groups
     ``surfel_group`` (P,)) confirms its group; a check echo (``checks``: of every pose, projected
@@ -181,17 +183,22 @@ def _support(scan: PoseScan, regions, groups: PlaneGroups, surfel_uv, surfel_gro
     def lift(uv):
         return np.column_stack([uv, far * _region_at(regions, uv)])
 
-    where = lift(px)
+    asked = np.asarray(candidates, dtype=bool).reshape(len(px), len(groups))
+    rows = np.flatnonzero(asked.any(axis=1))
+    where, asked = lift(px[rows]), asked[rows]
     s_lift, c_lift = lift(surfel_uv), lift(c_uv)
-    out = np.zeros((len(px), len(groups)), dtype=bool)
-    for g in range(len(groups)):  # a few dozen planes
+    found = np.zeros(asked.shape, dtype=bool)
+    for g in range(len(groups)):  # a few dozen planes, each at the pixels it may claim
         yes = np.concatenate([s_lift[surfel_group == g], c_lift[on_plane[:, g]]])
         no = c_lift[~on_plane[:, g]]
-        if len(yes) == 0:
+        if len(yes) == 0 or not asked[:, g].any():
             continue
-        d_yes = cKDTree(yes).query(where)[0]
-        d_no = cKDTree(no).query(where)[0] if len(no) else np.full(len(px), np.inf)
-        out[:, g] = d_yes <= d_no
+        at = where[asked[:, g]]
+        d_yes = cKDTree(yes).query(at)[0]
+        d_no = cKDTree(no).query(at)[0] if len(no) else np.full(len(at), np.inf)
+        found[asked[:, g], g] = d_yes <= d_no
+    out = np.zeros((len(px), len(groups)), dtype=bool)
+    out[rows] = found
     return out.reshape(shape + (len(groups),))
 
 
@@ -264,14 +271,14 @@ def grow_planes(scan: PoseScan, segments, groups: PlaneGroups, surfel_points, se
     allowed = np.zeros(grid_r.shape + (n_groups,), dtype=bool)
     inside = grid_r >= 0
     allowed[inside] = (hypotheses if tentative else claims)[grid_r[inside]] > 0
-    support = _support(scan, regions, groups, uv[seen], group_of[seen], pixels, settings,
-                       own_checks(scan) if checks is None else checks)
-    if support is not None:
-        allowed &= support
     limit = np.inf if settings.max_range is None else settings.max_range
     valid = allowed & (t > 1e-6) & (dist <= limit)
     if settings.below_floor is not None:  # nothing is seen through the floor
         valid &= origin[2] + rays[..., 2:] * t >= -settings.below_floor
+    support = _support(scan, regions, groups, uv[seen], group_of[seen], pixels, settings,
+                       own_checks(scan) if checks is None else checks, valid)
+    if support is not None:
+        valid &= support
     dist = np.where(valid, dist, np.inf)
     if n_groups:
         best = np.argmin(dist, axis=-1)
