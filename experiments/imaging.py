@@ -21,6 +21,9 @@ it was measured from (no odometry drift):
   30-50 kHz linear sweep instead of the tone burst (``Chirp``, :data:`CHIRP_SCANS`), as RTIS
   images (``paper`` and ``broadband``); the cycle grows by the sweep's length (33.9 ms with the
   paper preset, 34.0 ms broadband: 3.5 ms more than their bursts' cycles).
+* imaging_chirp_wide: a 4 ms sweep over RTIS's 20-80 kHz (``paper``, whose ideal transducers
+  pass it), sampled at 250 kHz, the element patterns, patch integrals and absorption traced at
+  five frequency nodes 15 kHz apart (``TraceSettings.subbands``, docs/imaging.md).
 * ofdm_trusted: the same OFDM frames (poses and seeds), every echo and range cell trusted by
   their arrival directions alone: no side-lobe check along the beam axis, one plane wave from
   the measured direction explaining ``min_coherence`` of the channels' power (the check's
@@ -103,12 +106,17 @@ SCENE_NAMES = ("office", "workshop")
 #: The chart's sonar configurations (:func:`config_for`): "broadband" is the physical default
 #: with 20 kHz transducers (``Transducer.broadband()``).
 PRESETS = ("default", "broadband", "paper")
-SCANS = ("sequential", "ofdm", "ofdm_trusted", "ofdm_image", "imaging", "imaging_chirp")
-#: The chirp imaging scans (module docstring): the presets they run with and the sweep: 30-50
-#: kHz, the broadband transducers' -6 dB band, over which the trace's centre-frequency element
-#: patterns hold as they do for those transducers' tone bursts (docs/imaging.md). The TCT40 class
-#: (``default``) passes 2 kHz: no sweep.
-CHIRP_SCANS = {"imaging_chirp": (("broadband", "paper"), mitsonar.Chirp())}
+SCANS = ("sequential", "ofdm", "ofdm_trusted", "ofdm_image", "imaging", "imaging_chirp",
+         "imaging_chirp_wide")
+#: The chirp imaging scans (module docstring): the presets they run with and the sonar's
+#: configuration changed for the sweep: 30-50 kHz, the broadband transducers' -6 dB band, traced
+#: at its centre as those transducers' tone bursts are; 20-80 kHz traced at five frequency
+#: nodes (docs/imaging.md). The TCT40 class (``default``) passes 2 kHz: no sweep.
+CHIRP_SCANS = {
+    "imaging_chirp": (("broadband", "paper"), lambda c: replace(c, pulse=mitsonar.Chirp())),
+    "imaging_chirp_wide": (("paper",), lambda c: replace(
+        c, pulse=mitsonar.Chirp(20e3, 80e3, 4e-3), sample_rate=250e3,
+        trace=replace(c.trace, subbands=5)))}
 #: Echo sets of one sequential or OFDM simulation (module docstring).
 ECHO_SETS = ("first", "all", "cells")
 #: The lit cone of ``ofdm_trusted``: arrival directions within it of their beam's axis [rad]
@@ -119,7 +127,7 @@ DECODINGS = {"ofdm_trusted": dict(echoes="cells", ghost_margin=0.0, arrival_cone
              "ofdm_image": dict(echoes="image")}
 #: What each scan of one point set reports (``echoes`` in the table).
 SINGLE_SETS = {"ofdm_trusted": "cells", "ofdm_image": "image", "imaging": "image",
-               "imaging_chirp": "image"}
+               "imaging_chirp": "image", "imaging_chirp_wide": "image"}
 #: Further trust thresholds of the imaging scan (``ImagingSettings.min_coherence``) beside its
 #: default: the same images, each threshold's points a strategy of its own,
 #: ``imaging_trust_<threshold>`` (points per second against accuracy along the trade-off).
@@ -140,7 +148,9 @@ MARKERS = {"sequential_first": "s", "sequential_all": "D", "sequential_cells": "
            "ofdm_first": "o", "ofdm_all": "^", "ofdm_cells": "v", "ofdm_trusted": "p",
            "ofdm_image": "X",
            "imaging": "*", "imaging_trust_0.35": "<", "imaging_trust_0.5": ">",
-           "imaging_chirp": "h", "imaging_chirp_trust_0.35": "H", "imaging_chirp_trust_0.5": "8"}
+           "imaging_chirp": "h", "imaging_chirp_trust_0.35": "H", "imaging_chirp_trust_0.5": "8",
+           "imaging_chirp_wide": "d", "imaging_chirp_wide_trust_0.35": "1",
+           "imaging_chirp_wide_trust_0.5": "2"}
 
 
 @dataclass(frozen=True)
@@ -252,8 +262,7 @@ def simulate(scan: str, sonar, trajectory, settings: RunSettings, progress) -> S
             return echo_sets(result.echo_table, result.echo_points_world)
     else:
         if scan in CHIRP_SCANS:  # the same sonar driven by a sweep
-            sonar = mitsonar.Sonar(sonar.scene, replace(sonar.config,
-                                                        pulse=CHIRP_SCANS[scan][1]))
+            sonar = mitsonar.Sonar(sonar.scene, CHIRP_SCANS[scan][1](sonar.config))
         trust = ImagingSettings(min_coherence=min((ImagingSettings.min_coherence,)
                                                   + IMAGING_TRUST))
         imaging = ImagingSonar(sonar, trust, TransmitSettings(

@@ -19,8 +19,10 @@ def plane_images(tx_positions, distance: float) -> np.ndarray:
     return np.asarray(tx_positions, dtype=float) * [1, 1, -1] + [0.0, 0.0, 2.0 * distance]
 
 
-def image_paths(config, direction, tx_images, reflection: complex = 1.0) -> Paths:
-    """Paths from transmit-element images (N_tx, 3) to every receive element.
+def image_paths(config, direction, tx_images, reflection: complex = 1.0,
+                frequency: float | None = None) -> Paths:
+    """Paths from transmit-element images (N_tx, 3) to every receive element, their gains at
+    ``frequency`` [Hz] (default: the drive's centre).
 
     The element directivity is evaluated at the angle of arrival, which equals the angle of
     departure for images by mirror planes parallel to the array or by a 180-degree rotation
@@ -35,8 +37,9 @@ def image_paths(config, direction, tx_images, reflection: complex = 1.0) -> Path
     g, element, medium = config.geometry, config.transducer, config.medium
     v = g.rx_positions[None] - np.asarray(tx_images, dtype=float)[:, None]
     length = np.linalg.norm(v, axis=-1)
-    k = float(medium.wavenumber(config.pulse.frequency))
-    attenuation = medium.amplitude_attenuation(length, config.pulse.frequency) \
+    frequency = config.pulse.frequency if frequency is None else frequency
+    k = float(medium.wavenumber(frequency))
+    attenuation = medium.amplitude_attenuation(length, frequency) \
         if config.trace.air_absorption else 1.0
     gain = (element.source_amplitude * reflection * element.directivity(-v[..., 2] / length, k) ** 2
             * attenuation / length

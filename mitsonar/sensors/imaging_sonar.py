@@ -233,8 +233,8 @@ class ImagingSonar:
         direct = self.tracer.direct_paths(BROADSIDE)
         n_rx = g.rx.count
         self._direct_spectra = [sonar.synthesizer.group_spectrum(
-            replace(direct, delay=direct.delay + np.repeat(e.firing[self._transmitting], n_rx)),
-            None, n_rx) for e in self.emissions]
+            direct.delayed(np.repeat(e.firing[self._transmitting], n_rx)), None, n_rx)
+            for e in self.emissions]
         self.direct_image = np.max([self.imager.envelopes(d) for d in self._direct_spectra],
                                    axis=0)
 
@@ -263,11 +263,11 @@ class ImagingSonar:
         sonar, cfg = self.sonar, self.sonar.config
         paths = self.tracer.trace(pose, BROADSIDE, seed=seed).paths
         emission, imager = self.emissions[ping], self.imagers[ping]
-        paths = replace(paths, tx_delay=paths.tx_delay + emission.firing[self._transmitting])
+        paths = paths.delayed(emission.firing[self._transmitting])
         n_rx = cfg.geometry.rx.count
         spectrum = self._direct_spectra[ping].copy()
         hits = max(1, PATH_BATCH // (paths.elements[0] * n_rx))
-        for first in range(0, len(paths.tx_delay), hits):  # bounded batches of element pairs
+        for first in range(0, paths.patches, hits):  # bounded batches of element pairs
             part = paths.select(slice(first, first + hits))
             spectrum += sonar.synthesizer.groups_spectrum(sonar.echo_groups(part, cfg.pulse), n_rx)
         recording = sonar.synthesizer.recording(sonar.band.to_samples(spectrum), cfg.noise_rms,

@@ -20,6 +20,7 @@ import scipy.fft as sfft
 
 from mitsonar.caching import kept
 from mitsonar.physics.transducer import Transducer
+from mitsonar.trace.subbands import Subbands, hat_weights
 from mitsonar.validation import check_finite, check_positive
 
 #: Complex baseband recordings are sampled at this many times the band's width.
@@ -162,8 +163,12 @@ class Band:
         """Analytic spectrum W(f) (n_fft,) of the expected echo of a unit path (drive x H_tx x
         H_rx) on the FFT grid, scaled per sample; zero outside the band. Cached per waveform
         (default: the pulse); a waveform not given to the constructor must lie within
-        :attr:`bins`."""
+        :attr:`bins`. A :class:`SubBand`'s is its drive's times the node's hat weight."""
         waveform = self.pulse if waveform is None else waveform
+        if waveform not in self._spectra and isinstance(waveform, SubBand):
+            # the drive's spectrum, cut at its floor, through the node's weight
+            self._spectra[waveform] = self.system_spectrum(waveform.waveform) * hat_weights(
+                waveform.nodes, self.fft_frequencies)[waveform.index]
         if waveform not in self._spectra:
             f = self.fft_frequencies
             positive = f > 0
@@ -284,3 +289,48 @@ def code_response(band: Band, waveform, frequencies) -> np.ndarray:
            band.transducer_response)
     return kept(_responses, key, RESPONSES_KEPT,
                 lambda: band.system_response(waveform, frequencies))
+
+
+@dataclass(frozen=True)
+class SubBand:
+    """A drive waveform seen through the ``index``-th hat weight of frequency ``nodes`` [Hz]
+    (:func:`~mitsonar.trace.subbands.hat_weights`): the drive of the path set whose gains were
+    evaluated at that node (:class:`~mitsonar.trace.subbands.Subbands`). The K sub-bands' spectra
+    add up to the drive's.
+
+    Attributes:
+        waveform: the drive (a Pulse, Chirp or OFDM code).
+        nodes: the nodes [Hz], increasing.
+        index: which node.
+    """
+
+    waveform: object
+    nodes: tuple
+    index: int
+
+    def spectrum(self, frequencies) -> np.ndarray:
+        """The drive's spectrum times this node's weight at ``frequencies`` [Hz]."""
+        return self.waveform.spectrum(frequencies) \
+            * hat_weights(self.nodes, frequencies)[self.index]
+
+    @property
+    def parts(self) -> tuple:
+        """The drive's tones (an OFDM code's ``parts``), each through this weight."""
+        return tuple(SubBand(p, self.nodes, self.index)
+                     for p in getattr(self.waveform, "parts", (self.waveform,)))
+
+    @property
+    def duration(self) -> float:
+        """The drive's duration [s]."""
+        return self.waveform.duration
+
+    @property
+    def frequency(self) -> float:
+        """The drive's centre frequency [Hz]."""
+        return self.waveform.frequency
+
+
+def node_groups(paths: Subbands, waveform) -> list:
+    """[(paths, waveform)] of a wide band's path sets: set k driven by ``waveform`` through
+    node k's hat weight."""
+    return [(part, SubBand(waveform, paths.nodes, k)) for k, part in enumerate(paths.parts)]

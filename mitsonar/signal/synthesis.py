@@ -19,7 +19,9 @@ Paths come in three kinds, each with its gridding kernel (the taps are common, :
 flat :class:`~mitsonar.trace.paths.Paths`; patches' element pairs in factored form
 (:class:`~mitsonar.trace.hitpaths.HitPaths`), gridded pair by pair from their factors; and
 narrow-band merged ones (:class:`~mitsonar.trace.hitpaths.MergedHits`), straight from the merge
-kernel.
+kernel. A wide band's paths (:class:`~mitsonar.trace.subbands.Subbands`, gains at several
+frequency nodes) are synthesised set by set, each driven through its node's hat weight
+(:class:`~mitsonar.signal.band.SubBand`).
 
 Recordings, real or complex baseband, and the spectra on the band that synthesis produces are
 those of a :class:`~mitsonar.signal.band.Band` (its module docstring), which also holds the
@@ -28,176 +30,24 @@ system spectra; the synthesizer adds the gridding kernel and the receiver noise.
 
 from __future__ import annotations
 
-from functools import cache
-
 import numpy as np
 import scipy.fft as sfft
 
-from mitsonar.jit import backend, freeze, to_jit
+from mitsonar.jit import backend, to_jit
 from mitsonar.physics.waveforms import phasor
-from mitsonar.signal.band import Band, Recording, code_response
-from mitsonar.trace.hitpaths import HitPaths, MergedHits, pair_gain
+from mitsonar.signal.band import Band, Recording, SubBand, code_response, node_groups
+from mitsonar.signal.gridding import fixed_point_scale, folded, pair_kernel, spread_kernel
+from mitsonar.trace.hitpaths import HitPaths, MergedHits
 from mitsonar.trace.paths import Paths
+from mitsonar.trace.subbands import Subbands
 
 
-#: The gridding kernels add into a copy of the grid per core, merged after (Dr.Jit's Expand
-#: reduction), each tap's (re, im) as one packet of two adjacent integers: measured on one beam's
-#: 4e5-1.9e6 element pairs (20 kHz transducers, 25 x 8 600 samples) 5x faster than two scatters
-#: per tap and 20x faster than atomic adds into one grid. The copies cost a grid's memory per
-#: core (3.4 MB for a broadband OFDM beam's 25 channels); Dr.Jit's CUDA backend adds atomically.
-GRID_REDUCE = "Expand"
 #: Drive spectra kept by a synthesizer (~1 MB each).
 DRIVES_KEPT = 64
 #: Factored path sets gridded by one launch of the pair kernel while their rows hold at most
 #: about this many samples: an OFDM cycle's beams of few patches (the paper model's) share one,
 #: a broadband beam's rows (25 x 8 600 samples) get their own, its grid in cache.
 PAIR_BATCH_SAMPLES = 1 << 19
-
-
-def _spread(acc, pos, row, gain, first_order, rotation, half_width: int, inv_var: float,
-            rate_inv_var: float, active=True):
-    """Inside a gridding kernel: add paths at positions ``pos`` [samples, Float64] with the
-    Gaussian kernel onto the Int64 fixed-point grid ``acc`` of interleaved (re, im) samples, at
-    sample ``row + floor(pos) + k`` for taps k in -half_width .. half_width (``row``: the path's
-    row start minus the row's first sample, :meth:`EchoSynthesizer._window`).
-
-    ``gain`` (re, im) is in grid units; ``first_order`` None or (re, im, carrier - f_d [rad/s])
-    (kernel derivative, see :meth:`EchoSynthesizer.impulse_grid`); ``rotation`` None or the
-    shift f_d [cycles per sample] to demodulate gains and first-order terms by
-    exp(-j 2 pi f_d pos); ``active`` masks paths out.
-    """
-    import drjit as dr
-    Float64, Int64, UInt32 = backend().Float64, backend().Int64, backend().UInt32
-    Array2i64 = backend().Array2i64
-
-    if rotation is not None:
-        cycles = rotation * pos
-        sin, cos = dr.sincos(-2 * np.pi * (cycles - dr.floor(cycles)))  # exp(-j 2 pi f_d tau)
-
-        def rotated(re, im):
-            return re * cos - im * sin, re * sin + im * cos
-
-        gain = rotated(*gain)
-        if first_order is not None:
-            first_order = rotated(*first_order[:2]) + (first_order[2],)
-    base = Int64(dr.floor(pos))
-    frac = pos - Float64(base)  # in [0, 1)
-    # Fast Gaussian gridding: g(k - frac) = exp(-k^2 / 2 sigma^2) exp(k frac / sigma^2)
-    # exp(-frac^2 / 2 sigma^2): two exponentials per path serve every tap k (powers of
-    # exp(frac / sigma^2) by multiplication; relative rounding ~1e-15 per tap).
-    common = dr.exp(-0.5 * inv_var * dr.square(frac))
-    growth = dr.exp(inv_var * frac)
-    power = {0: common}
-    for k in range(1, half_width + 1):
-        power[k] = power[k - 1] * growth
-        power[-k] = power[1 - k] / growth
-    mode = getattr(dr.ReduceMode, GRID_REDUCE)
-    for k in range(-half_width, half_width + 1):  # kernel taps (a fixed, small count)
-        weight = power[k] * float(np.exp(-0.5 * k * k * inv_var))
-        value_re, value_im = gain
-        if first_order is not None:  # b (j omega + fs x / sigma^2), x = k - frac
-            slope_re, slope_im, omega = first_order
-            x = rate_inv_var * (k - frac)
-            value_re = value_re + slope_re * x - slope_im * omega
-            value_im = value_im + slope_im * x + slope_re * omega
-        dr.scatter_reduce(dr.ReduceOp.Add, acc, Array2i64(Int64(dr.round(weight * value_re)),
-                                                          Int64(dr.round(weight * value_im))),
-                          UInt32(row + base + k), active=active, mode=mode)
-
-
-@cache
-def _spread_kernel():
-    """The gridding kernel of :meth:`EchoSynthesizer.impulse_grid` for flat :class:`Paths`,
-    frozen (``drjit.freeze``): traced once per kernel shape, then replayed without Python tracing
-    whatever the path count.
-
-    Arguments: the flat grid's size, positions (M,) [samples], row offsets (M,) (of ``_spread``),
-    (re, im) gains, None or (re, im, carrier - f_d [rad/s]) of the first-order terms,
-    the shift f_d [cycles per sample], half_width [taps], 1/sigma^2, fs/sigma^2, a mask of the
-    paths to spread (or True). Returns the Int64 grid of interleaved (re, im). (Each grid size
-    is a separate recording: the grids are made inside, as scatter targets passed in would be
-    replayed at the recorded size.)
-    """
-    import drjit as dr
-    Int64 = backend().Int64
-
-    def spread(size, pos, row, gain, first_order, shift, half_width, inv_var, rate_inv_var,
-               active):
-        acc = dr.zeros(Int64, 2 * size)
-        _spread(acc, pos, row, gain, first_order, shift, half_width, inv_var, rate_inv_var,
-                active)
-        return acc
-
-    # One recording per grid size and kernel shape (a few per synthesizer; sessions that build
-    # several synthesizers, e.g. fidelity levels and OFDM, make dozens): not a re-tracing fault.
-    return freeze(spread, warn_after=256)
-
-
-@cache
-def _pair_kernel():
-    """The gridding kernel of :meth:`EchoSynthesizer.impulse_grid` for factored
-    :class:`~mitsonar.trace.hitpaths.HitPaths`, frozen: one thread per (patch, receive element)
-    forms the gains of its N_tx element pairs from the factors (:func:`pair_gain`, single
-    precision) and spreads them, so the H x N_tx x N_rx pairs never exist as arrays.
-
-    Arguments: the flat grid's size, thread indices 0 .. H x N_rx - 1, the 7 transmit and 7
-    receive factors (:meth:`HitPaths.kernel_factors`, already demodulated and in grid units),
-    transmit positions (H x N_tx,) and receive offsets (H x N_rx,) [samples] (a pair's position
-    is their sum), N_tx, N_rx, each patch's row length and the flat index of its rows' sample 0
-    (H,) (several path sets, each on rows of its own, share a launch), half_width, 1/sigma^2,
-    the recording's sample count, and the offset between transmit elements' rows (0: a row per
-    receive element; N_rx x the row length: a row per element pair, transmit element major).
-    Returns the Int64 grid of interleaved (re, im).
-    """
-    import drjit as dr
-    Float32, Float64, Int64 = backend().Float32, backend().Float64, backend().Int64
-
-    def spread_pairs(size, thread, tx, rx, tx_pos, rx_pos, n_tx, n_rx, stride, row_offset,
-                     half_width, inv_var, n_samples, element_stride):
-        acc = dr.zeros(Int64, 2 * size)
-        patch = thread // n_rx
-        row = Int64(thread - patch * n_rx) * dr.gather(Int64, stride, patch) \
-            + dr.gather(Int64, row_offset, patch)
-        rx_values = [dr.gather(Float32, x, thread) for x in rx]
-        rx_u = dr.gather(Float64, rx_pos, thread)
-        for i in range(n_tx):  # the patch's transmit elements (unrolled)
-            tx_values = [dr.gather(Float32, x, patch * n_tx + i) for x in tx]
-            gain = tuple(Float64(g) for g in pair_gain(tx_values, rx_values))
-            pos = dr.gather(Float64, tx_pos, patch * n_tx + i) + rx_u
-            _spread(acc, pos, row + i * element_stride if element_stride else row, gain, None,
-                    None, half_width, inv_var, 0.0,
-                    active=(pos > -half_width) & (pos < n_samples + half_width))
-        return acc
-
-    return freeze(spread_pairs, warn_after=256)
-
-
-def _fixed_point_scale(peak):
-    """Scale of the grids' fixed point for contributions up to ``peak`` (a float, or an array
-    of several grids' peaks; 0 where the peak is): a quantum of 2^-36 of the largest one. Up to
-    2^25 terms of that size cannot overflow int64, and the rounding (1.5e-11 relative per term)
-    is far below the synthesis tolerance."""
-    peak = np.asarray(peak, dtype=float)
-    return np.where(peak > 0.0, 2.0 ** (36 - np.ceil(np.log2(np.where(peak > 0.0, peak, 1.0)))),
-                    0.0)
-
-
-def _folded(padded: np.ndarray, scale: float, n_grid: int, origin: int,
-            grid: np.ndarray | None = None) -> np.ndarray:
-    """The (n_rows, n_grid) complex64 grid (``grid``, or a new one) of a kernel's fixed-point
-    rows (n_rows, width, 2) of interleaved (re, im) over ``scale`` (a power of two): column c holds
-    sample (origin + c) modulo n_grid, added onto the period in contiguous pieces (a few)."""
-    if grid is None:
-        grid = np.zeros((len(padded), n_grid), dtype=np.complex64)
-    values = padded.astype(np.float32).view(np.complex64)[..., 0]  # (re, im) pairs as complex
-    values *= np.float32(1.0 / scale)
-    column = 0
-    while column < values.shape[1]:
-        first = (origin + column) % n_grid
-        n = min(values.shape[1] - column, n_grid - first)
-        grid[:, first:first + n] += values[:, column:column + n]
-        column += n
-    return grid
 
 
 class EchoSynthesizer:
@@ -244,6 +94,9 @@ class EchoSynthesizer:
         its cycle), which cannot bring them back into the recording."""
         band = self.band
         waveform = band.pulse if waveform is None else waveform
+        if isinstance(paths, Subbands):
+            return [group for part, weighted in node_groups(paths, waveform)
+                    for group in self.narrowband_groups(part, weighted)]
         tones = getattr(waveform, "parts", (waveform,))
         centres = [band.band_moments(t)[0] for t in tones]
         if not isinstance(paths, HitPaths):
@@ -263,10 +116,10 @@ class EchoSynthesizer:
         b (j 2 pi (f_c - f_d) g(x) - fs g'(x)), whose transform is -j 2 pi (f - f_c) times g's:
         one grid and one FFT carry both terms of a narrow-band merged path. Factored
         :class:`~mitsonar.trace.hitpaths.HitPaths` are gridded pair by pair from their factors
-        (:func:`_pair_kernel`), never expanded into arrays of every pair.
+        (:func:`pair_kernel`), never expanded into arrays of every pair.
 
         Runs as one Dr.Jit kernel (an add of a (re, im) packet per kernel tap into a copy of the
-        grid per core, :data:`GRID_REDUCE`), compiled once per grid width and reused.
+        grid per core, :data:`~mitsonar.signal.gridding.GRID_REDUCE`), compiled once per grid width and reused.
         Contributions are accumulated as 64-bit fixed-point integers, whose sum does not depend
         on the order the threads add them in: the same paths give bit-identical recordings. The
         grid is returned in single precision (complex64: its rounding, ~6e-8 of the largest
@@ -295,7 +148,7 @@ class EchoSynthesizer:
         slope = None if paths.first_order is None else np.asarray(paths.first_order)[keep]
         bound = np.abs(gain) if slope is None else \
             np.abs(gain) + np.abs(slope) * (abs(omega) + fs * (hw + 1) * inv_var)
-        scale = float(_fixed_point_scale(np.max(bound, initial=0.0)))
+        scale = float(fixed_point_scale(np.max(bound, initial=0.0)))
         if len(channel) == 0 or scale == 0.0:
             return np.zeros((n_channels, band.n_grid), dtype=np.complex64)
         first_order = None if slope is None else (
@@ -304,11 +157,11 @@ class EchoSynthesizer:
         gains = (to_jit(Float64, gain.real * scale), to_jit(Float64, gain.imag * scale))
         u = u[keep]
         origin, width = self._window(u.min(), u.max())
-        acc = _spread_kernel()(n_channels * width, to_jit(Float64, u),
+        acc = spread_kernel()(n_channels * width, to_jit(Float64, u),
                                to_jit(Int64, channel * width - origin), gains, first_order,
                                dr.opaque(Float64, band.shift_bin / band.n_grid), hw, inv_var,
                                fs * inv_var, True)
-        return _folded(acc.numpy().reshape(n_channels, -1, 2), scale, band.n_grid, origin)
+        return folded(acc.numpy().reshape(n_channels, -1, 2), scale, band.n_grid, origin)
 
     def _merged_grid(self, paths: MergedHits, n_channels: int) -> np.ndarray:
         """:meth:`impulse_grid` of narrow-band merged paths held as Dr.Jit arrays."""
@@ -322,7 +175,7 @@ class EchoSynthesizer:
         first, last = ((t + paths.offset - band.start_time) * fs for t in paths.span)
         omega = 2 * np.pi * (paths.frequency - band.fft_frequencies[band.shift_bin])  # [rad/s]
         # The bound of flat paths' (impulse_grid), from the merge's bounds on |a| and |b|.
-        scale = float(_fixed_point_scale(paths.peaks[0] + paths.peaks[1]
+        scale = float(fixed_point_scale(paths.peaks[0] + paths.peaks[1]
                                          * (abs(omega) + fs * (hw + 1) * inv_var)))
         if len(paths) == 0 or scale == 0.0 or last <= -hw or first >= band.n_samples + hw:
             return np.zeros((n_channels, band.n_grid), dtype=np.complex64)
@@ -335,10 +188,10 @@ class EchoSynthesizer:
         gains = (Float64(a_re) * factor, Float64(a_im) * factor)
         first_order = (Float64(b_re) * factor, Float64(b_im) * factor, dr.opaque(Float64, omega))
         row = Int64(paths.channel) * dr.opaque(Int64, width) - dr.opaque(Int64, origin)
-        acc = _spread_kernel()(n_channels * width, u, row, gains, first_order,
+        acc = spread_kernel()(n_channels * width, u, row, gains, first_order,
                                dr.opaque(Float64, band.shift_bin / band.n_grid), hw, inv_var,
                                fs * inv_var, (u > -hw) & (u < band.n_samples + hw))
-        return _folded(acc.numpy().reshape(n_channels, -1, 2), scale, band.n_grid, origin)
+        return folded(acc.numpy().reshape(n_channels, -1, 2), scale, band.n_grid, origin)
 
     def _window(self, first: float, last: float) -> tuple[int, int]:
         """(origin, width) of the kernels' grid rows for paths at positions ``first`` ..
@@ -370,7 +223,7 @@ class EchoSynthesizer:
     def _pair_grids(self, sets, n_channels: int, per_pair: bool = False,
                     period: int | None = None, by_arrival: bool = False) -> np.ndarray:
         """:meth:`impulse_grid` (S, rows, period) of sets of factored paths (:class:`HitPaths`
-        with the same element counts) by :func:`_pair_kernel`, each as gridded alone (bit for
+        with the same element counts) by :func:`pair_kernel`, each as gridded alone (bit for
         bit: its own window, fixed-point scale and sums), the sets' windows and scales as array
         operations over all patches, and one launch for as many sets as ``PAIR_BATCH_SAMPLES``
         allows, each set on rows of its own. With ``per_pair``, a row per element pair
@@ -399,7 +252,7 @@ class EchoSynthesizer:
         np.maximum.at(peak, owner, paths.gain_bound())
         np.minimum.at(first, owner, earliest)
         np.maximum.at(last, owner, latest)
-        scale = _fixed_point_scale(peak)
+        scale = fixed_point_scale(peak)
         gridded = scale > 0.0  # sets with a recorded pair of some gain
         origin, width = self._windows(np.maximum(np.where(gridded, first, 0.0), -hw),
                                       np.minimum(np.where(gridded, last, 0.0),
@@ -420,7 +273,7 @@ class EchoSynthesizer:
             total = int(size[members].sum())
             thread = to_jit(UInt32, np.arange(mine.size * n_rx, dtype=np.uint32))
             whose = owner[mine]
-            acc = _pair_kernel()(1 << (total - 1).bit_length(), thread, tx, rx,
+            acc = pair_kernel()(1 << (total - 1).bit_length(), thread, tx, rx,
                                  to_jit(Float64, tx_u[mine]), to_jit(Float64, rx_u[mine]), n_tx,
                                  n_rx, to_jit(Int64, width[whose]),
                                  to_jit(Int64, start[whose] - origin[whose]), hw,
@@ -429,7 +282,7 @@ class EchoSynthesizer:
             flat = acc.numpy()
             for k in members:  # each set's rows onto its period
                 rows_k = flat[2 * start[k]: 2 * (start[k] + size[k])].reshape(n_rows, -1, 2)
-                _folded(rows_k, scale[k], period, int(origin[k]), grids[k])
+                folded(rows_k, scale[k], period, int(origin[k]), grids[k])
         return grids
 
     def analytic(self, paths: Paths, n_channels: int, waveform=None) -> np.ndarray:
@@ -453,7 +306,10 @@ class EchoSynthesizer:
         band = self.band
         by_waveform: dict = {}
         for paths, waveform in groups:
-            by_waveform.setdefault(band.pulse if waveform is None else waveform, []).append(paths)
+            waveform = band.pulse if waveform is None else waveform
+            for part, weighted in (node_groups(paths, waveform) if isinstance(paths, Subbands)
+                                   else [(paths, waveform)]):
+                by_waveform.setdefault(weighted, []).append(part)
         if not by_waveform:
             return np.zeros((n_channels, len(band.frequencies)), complex)
         kinds = []  # per waveform: each kind of paths (and merge frequency), gridded by its kernel
@@ -503,7 +359,7 @@ class EchoSynthesizer:
         ``paths`` (transmit delays: travel times) when every transmit element e fires each
         waveform b of ``waveforms`` with delay ``delays[b, e]`` (B, N_tx) [s]: sum_e G_em(f)
         D_e(f) (:meth:`drive_spectra`), with G_em the channel from element e to receive element
-        m through the patches, gridded once on a row per element pair (:func:`_pair_kernel`)
+        m through the patches, gridded once on a row per element pair (:func:`pair_kernel`)
         whatever the number of waveforms.
 
         The drives' delays carry echoes later; on the band's period they would wrap onto the
@@ -511,6 +367,9 @@ class EchoSynthesizer:
         channels driven and summed on its bins within the band, and the recording's samples
         taken from them (an inverse transform, the echoes cut at the recording's end as a
         recording cuts them) and put onto the band (:meth:`Band.band_spectra`)."""
+        if isinstance(paths, Subbands):
+            return sum(self.element_spectrum(part, [SubBand(w, paths.nodes, k) for w in waveforms],
+                                             delays) for k, part in enumerate(paths.parts))
         band = self.band
         fs = band.sample_rate
         n_tx, n_rx = paths.elements

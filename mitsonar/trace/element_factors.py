@@ -110,7 +110,9 @@ def _kernel():
         return (delay, dr.select(ok, s_re, 0.0), dr.select(ok, s_im, 0.0), cos, sinc1, sinc2,
                 g_re * lambert, g_im * lambert)
 
-    return freeze(factors)
+    # A recording per variant (transmit, receive, mirrored) and per k a: one per frequency node
+    # of a wide band (``TraceSettings.subbands``, up to 16), not a re-tracing fault.
+    return freeze(factors, warn_after=64)
 
 
 def element_factors(points, normals, edges, elements, element_gain, ka: float,

@@ -112,6 +112,11 @@ class HitPaths:
         """(N_tx, N_rx)."""
         return self.tx_delay.shape[1], self.rx_delay.shape[1]
 
+    @property
+    def patches(self) -> int:
+        """H."""
+        return len(self.tx_delay)
+
     def __len__(self) -> int:
         n_tx, n_rx = self.elements
         return len(self.tx_delay) * n_tx * n_rx
@@ -160,8 +165,9 @@ class HitPaths:
             * (peak(self.tx_cos) + peak(self.rx_cos)) \
             + peak(self.tx_diffuse) * peak(self.rx_diffuse) * np.abs(self.diffuse)
 
-    def delayed(self, seconds: float) -> "HitPaths":
-        """The same paths ``seconds`` [s] later (still factored)."""
+    def delayed(self, seconds) -> "HitPaths":
+        """The same paths ``seconds`` [s] later (still factored): a scalar, or (N_tx,) per
+        transmit element (its firing time)."""
         return replace(self, tx_delay=self.tx_delay + seconds)
 
     def kernel_factors(self) -> tuple[list, list]:

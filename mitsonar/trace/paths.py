@@ -52,8 +52,9 @@ class Paths:
         """No paths."""
         return cls(np.zeros(0, complex), np.zeros(0), np.zeros(0, int))
 
-    def delayed(self, seconds: float) -> "Paths":
-        """The same paths ``seconds`` [s] later (e.g. a beam fired later in an OFDM cycle)."""
+    def delayed(self, seconds) -> "Paths":
+        """The same paths ``seconds`` [s] later (e.g. a beam fired later in an OFDM cycle): a
+        scalar, or (M,) one per path."""
         return replace(self, delay=self.delay + seconds)
 
     def narrowband(self, frequency: float) -> "Paths":

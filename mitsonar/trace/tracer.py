@@ -59,6 +59,7 @@ from mitsonar.trace.casting import (_EPS, RayCaster, _length, _rotate, _rows_dot
 from mitsonar.trace.element_factors import element_factors
 from mitsonar.trace.hitpaths import HitPaths
 from mitsonar.trace.paths import Paths
+from mitsonar.trace.subbands import Subbands, subband_nodes
 from mitsonar.validation import check_finite, check_positive, check_range
 
 
@@ -103,6 +104,13 @@ class TraceSettings:
             their block's centre) and bought no measurable time (docs/performance.md).
         max_patch_phase: the patch criterion: the largest phase error of the patch model at a
             patch's corners at the band's top frequency [rad].
+        subbands: frequency nodes at which element patterns, patch integrals and air
+            absorption are evaluated, spread evenly over the band (the wider of the drive's and
+            the transducers' bandwidths), the paths' gains interpolated linearly between them
+            (:mod:`~mitsonar.trace.subbands`); 1 (the default): once, at the drive's centre,
+            which holds over narrow bands (across 30-50 kHz the piston pattern at the field of
+            view's corner stays within +1.8/-2.6 dB of its 40 kHz value). A 20-80 kHz sweep
+            needs 5 (docs/imaging.md). Costs about that many times the synthesis.
     """
 
     model: str = "physical"
@@ -126,6 +134,7 @@ class TraceSettings:
     shared_ray_step: float = np.radians(2.0)
     max_merge: int = 1
     max_patch_phase: float = np.pi / 8
+    subbands: int = 1
 
     def __post_init__(self):
         if self.model not in ("physical", "paper"):
@@ -153,6 +162,9 @@ class TraceSettings:
             raise ValueError(f"TraceSettings.max_merge must be 1, 2, 4, 8 or 16, "
                              f"got {self.max_merge}")
         check_range("TraceSettings.max_patch_phase [rad]", self.max_patch_phase, 1e-3, np.pi)
+        if int(self.subbands) != self.subbands or not 1 <= self.subbands <= 16:
+            raise ValueError(f"TraceSettings.subbands must be an integer in 1..16, "
+                             f"got {self.subbands}")
         if self.transmit_weights is not None:
             weights = tuple(float(w) for w in np.ravel(self.transmit_weights))
             check_finite("TraceSettings.transmit_weights", np.array(weights))
@@ -166,13 +178,14 @@ class TraceResult:
     """Paths of one beam and the reflectors that produced them.
 
     Attributes:
-        paths: all echo paths (crosstalk not included), factored per element pair.
+        paths: all echo paths (crosstalk not included), factored per element pair; with
+            ``TraceSettings.subbands`` > 1, one such set per frequency node (:class:`Subbands`).
         hit_points: (H, 3) first-bounce reflector positions in the sensor frame [m].
         hit_materials: (H,) material index per hit (into ``AcousticScene.materials``).
         ray_count: rays traced for this beam.
     """
 
-    paths: HitPaths
+    paths: HitPaths | Subbands
     hit_points: np.ndarray
     hit_materials: np.ndarray
     ray_count: int
@@ -222,7 +235,8 @@ class AcousticTracer(RayCaster):
                  medium: Medium, pulse: Pulse | Chirp, settings: TraceSettings = TraceSettings()):
         # The band's top: half the wider of the transducer's and the drive's bandwidths above
         # the carrier.
-        top = pulse.frequency + 0.5 * max(transducer.bandwidth_6db, pulse.bandwidth)
+        half = 0.5 * max(transducer.bandwidth_6db, pulse.bandwidth)
+        top = pulse.frequency + half
         self.k = float(medium.wavenumber(pulse.frequency))
         super().__init__(scene, geometry, settings, (self.k, float(medium.wavenumber(top))))
         self.transducer = transducer
@@ -230,9 +244,15 @@ class AcousticTracer(RayCaster):
         self.c = medium.speed_of_sound
         z_air = medium.impedance
         self._z_air = z_air
-        absorption = float(medium.absorption_db_per_m(pulse.frequency)) \
-            if settings.air_absorption else 0.0
-        self._log_attenuation = -absorption * np.log(10.0) / 20.0  # [1/m], amplitude
+        #: Frequency nodes of the element patterns, patch integrals and absorption [Hz]
+        #: (``TraceSettings.subbands``).
+        self.nodes = tuple(float(f) for f in
+                           subband_nodes(pulse.frequency, half, settings.subbands))
+        self._node_k = [float(medium.wavenumber(f)) for f in self.nodes]
+        # air absorption at each node [1/m], amplitude, natural log
+        self._node_log_attenuation = [
+            -float(medium.absorption_db_per_m(f)) * np.log(10.0) / 20.0
+            if settings.air_absorption else 0.0 for f in self.nodes]
         mats = scene.materials
         self._scattering = np.array([m.scattering for m in mats])
         self._z2 = np.array([m.normal_impedance(z_air) for m in mats])
@@ -241,10 +261,6 @@ class AcousticTracer(RayCaster):
         if self._weights is not None and len(self._weights) != geometry.tx.count:
             raise ValueError(f"TraceSettings.transmit_weights: {len(self._weights)} weights for "
                              f"{geometry.tx.count} transmit elements")
-
-    # ---- geometry helpers -------------------------------------------------------------------
-    def _attenuation(self, distance):
-        return np.exp(self._log_attenuation * distance)
 
     # ---- physics ---------------------------------------------------------------------------
     def _reflection(self, mats, cos_incidence):
@@ -264,8 +280,18 @@ class AcousticTracer(RayCaster):
         return edges
 
     def _scatter(self, points, normals, mats, edges, mirror, steering, extra_gain, visible,
-                 roughness) -> HitPaths:
-        """Paths re-radiated by patches (see module docstring). All inputs are per hit
+                 roughness) -> HitPaths | Subbands:
+        """Paths re-radiated by patches at every frequency node (:meth:`_scatter_at`): one
+        :class:`HitPaths`, or :class:`Subbands` of them."""
+        parts = [self._scatter_at(k, log_attenuation, points, normals, mats, edges, mirror,
+                                  steering, extra_gain, visible, roughness)
+                 for k, log_attenuation in zip(self._node_k, self._node_log_attenuation)]
+        return parts[0] if len(parts) == 1 else Subbands(tuple(parts), self.nodes)
+
+    def _scatter_at(self, k: float, log_attenuation: float, points, normals, mats, edges, mirror,
+                    steering, extra_gain, visible, roughness) -> HitPaths:
+        """Paths re-radiated by patches at wavenumber ``k`` [rad/m] with air absorption
+        ``log_attenuation`` [1/m] (see module docstring). All other inputs are per hit
         (``edges``: (H, 2, 3) from :meth:`_patch_edges`; ``roughness``: (H,) unit phasors of the
         diffuse part, see :meth:`_roughness`; ``mirror``: None, or the plane (points, normals)
         (H, 3) the transmit array is mirrored in for unfolded bounces; ``steering``: (H, N_tx)
@@ -281,8 +307,8 @@ class AcousticTracer(RayCaster):
         area = _length(np.cross(edges[:, 0], edges[:, 1]))
         # Patch integral of exp(-j k (r_i + r_j)) over the parallelogram: A sinc(.) sinc(.), the
         # phase gradient being w_i + v_j; the sinc arguments split into TX and RX parts.
-        edges = edges * (0.5 * self.k / np.pi)  # np.sinc(x) = sin(pi x) / (pi x)
-        common = dict(ka=self.k * self.transducer.radius, log_attenuation=self._log_attenuation,
+        edges = edges * (0.5 * k / np.pi)  # np.sinc(x) = sin(pi x) / (pi x)
+        common = dict(ka=k * self.transducer.radius, log_attenuation=log_attenuation,
                       speed_of_sound=self.c)
         tx = element_factors(points, normals, edges, g.tx_positions,
                              self.transducer.source_amplitude * np.exp(1j * g.tx_phase_offsets),
@@ -300,7 +326,7 @@ class AcousticTracer(RayCaster):
             mid = alpha * self.settings.paper_beta * energy_r * extra_gain
             return HitPaths.point_reflectors(tx.specular, tx.delay, rx.specular, rx.delay, mid)
         s = self._scattering[mats]
-        specular = 1j * self.k / (4 * np.pi) * area * np.sqrt(1 - s) * extra_gain
+        specular = 1j * k / (4 * np.pi) * area * np.sqrt(1 - s) * extra_gain
         # Lambert: |r| sqrt(s A cos_in cos_out / pi), with a random phase per patch (surface
         # roughness; constant over the narrow band of the pulse), so it shares the delays.
         diffuse = np.sqrt(s * area / np.pi) * extra_gain * roughness
@@ -370,7 +396,8 @@ class AcousticTracer(RayCaster):
         bounds = [np.searchsorted(part_beam, np.arange(n_beams + 1)) for part_beam, _ in parts]
         for k in range(n_beams):  # split into beams (hits are ordered by beam)
             rows = [slice(bound[k], bound[k + 1]) for bound in bounds]
-            paths = HitPaths.concatenate([part.select(r) for (_, part), r in zip(parts, rows)])
+            paths = type(parts[0][1]).concatenate([part.select(r)
+                                                   for (_, part), r in zip(parts, rows)])
             results.append(TraceResult(paths, x[rows[0]], mats_h[rows[0]], int(ray_count[k])))
         return results
 
@@ -415,7 +442,7 @@ class AcousticTracer(RayCaster):
         return HitPatches(p_w[hit], n, edges, mats_h, self._union_weight(d_h @ u.T), roughness,
                           sensor_pose, int(ray_count[0]))
 
-    def patch_paths(self, patches: HitPatches, sensor_pose: Pose) -> HitPaths:
+    def patch_paths(self, patches: HitPatches, sensor_pose: Pose) -> HitPaths | Subbands:
         """Unsteered paths (transmit delays: travel times) of shared ``patches`` through every
         element pair of the array at ``sensor_pose``: element factors and receive visibility
         computed for that pose, the patches as traced (the array may have moved since)."""
@@ -428,9 +455,11 @@ class AcousticTracer(RayCaster):
         return self._scatter(x, n, patches.materials, patches.edges @ rotation, None, None,
                              patches.weight.astype(complex), visible, patches.roughness)
 
-    def _weighted(self, paths: HitPaths) -> HitPaths:
+    def _weighted(self, paths: HitPaths | Subbands) -> HitPaths | Subbands:
         """``paths`` with transmit element i's factors times ``transmit_weights[i]``, the
         elements of weight 0 left out."""
+        if isinstance(paths, Subbands):
+            return paths.each(self._weighted)
         on = np.flatnonzero(self._weights)
         w = self._weights[on]
         return replace(paths, tx_delay=paths.tx_delay[:, on], tx_cos=paths.tx_cos[:, on],
@@ -500,21 +529,24 @@ class AcousticTracer(RayCaster):
             x2, n2, mats2, edges, (x1[hit], n1h), steering[hit],
             (taper[hit] * r1).astype(complex), visible, self._roughness(mats2, beam[hit], rngs)))]
 
-    def direct_paths(self, direction) -> Paths:
-        """Direct transmitter -> receiver paths (cross-talk) for a beam steered to ``direction``."""
+    def direct_paths(self, direction) -> Paths | Subbands:
+        """Direct transmitter -> receiver paths (cross-talk) for a beam steered to
+        ``direction``, at every frequency node (:class:`Subbands` of them for more than one)."""
         g = self.geometry
         u = _unit(np.asarray(direction, dtype=float))
         steering = g.steering_delays(u, self.c)
         v = g.rx_positions[None, :, :] - g.tx_positions[:, None, :]  # (N_tx, N_rx, 3)
         r = np.linalg.norm(v, axis=-1)
         cos = np.clip(v[..., 2] / r, 0.0, 1.0)  # grazing along the baffle
-        d = self.transducer.directivity(cos, self.k)
-        gain = (self.settings.crosstalk_gain * self.transducer.source_amplitude * d * d
-                * self._attenuation(r) / r
-                * np.exp(1j * (g.tx_phase_offsets[:, None] + g.rx_phase_offsets[None, :])))
         delay = steering[:, None] + r / self.c
         channel = np.broadcast_to(np.arange(g.rx.count), r.shape)
-        if self._weights is not None:  # the transmitting elements, weighted
-            on = self._weights != 0
-            gain, delay, channel = gain[on] * self._weights[on, None], delay[on], channel[on]
-        return Paths(gain.ravel(), delay.ravel(), channel.ravel())
+        on = np.ones(g.tx.count, bool) if self._weights is None else self._weights != 0
+        weight = np.ones(g.tx.count) if self._weights is None else self._weights
+        parts = []
+        for k, log_attenuation in zip(self._node_k, self._node_log_attenuation):
+            d = self.transducer.directivity(cos, k)
+            gain = (self.settings.crosstalk_gain * self.transducer.source_amplitude * d * d
+                    * np.exp(log_attenuation * r) / r * weight[:, None]
+                    * np.exp(1j * (g.tx_phase_offsets[:, None] + g.rx_phase_offsets[None, :])))
+            parts.append(Paths(gain[on].ravel(), delay[on].ravel(), channel[on].ravel()))
+        return parts[0] if len(parts) == 1 else Subbands(tuple(parts), self.nodes)

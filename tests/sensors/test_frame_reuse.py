@@ -16,12 +16,12 @@ from mitsonar.scene.xml import material_xml, sphere_xml
 from mitsonar.sensors.ofdm_sonar import OfdmSonar
 from mitsonar.signal import band as band_module
 from mitsonar.signal.band import Band, code_response
-from mitsonar.signal.synthesis import _pair_kernel, _spread_kernel
+from mitsonar.signal.gridding import pair_kernel, spread_kernel
 from mitsonar.trace.element_factors import _kernel as _factors_kernel
 from mitsonar.trace.hitpaths import _merge_kernel
 
 #: The frozen kernels of a frame.
-FROZEN = (_factors_kernel, _merge_kernel, _spread_kernel, _pair_kernel)
+FROZEN = (_factors_kernel, _merge_kernel, spread_kernel, pair_kernel)
 
 
 def target_scene(scene_file, name, distance):
