@@ -436,7 +436,7 @@ def test_repeated_imaging_frames_group_images_under_one_camera_image(scene_file)
         + second.world_from_sensor[:, :3, 3]
     np.testing.assert_allclose(world, np.concatenate([im.points_world for im in second.images]),
                                atol=1e-12)
-    off = np.abs(world[:, 0] - 2.0)  # the wall 1.9 m ahead
-    assert len(world) > 10 and len(voxels.positions) > 0 and np.median(off) < 0.02
+    off = np.abs(world[:, 0] - 2.0)  # the wall 1.9 m ahead: within 5 mm (measured 0.4 mm)
+    assert len(world) >= per_frame and len(voxels.positions) > 0 and off.max() < 5e-3, off
     with pytest.raises(ValueError, match="scan"):
         RepeatedMapSpec(scan="sweep")

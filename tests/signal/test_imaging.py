@@ -212,7 +212,7 @@ def test_the_rules_pass_fewer_cells_in_turn(chain):
     _, found = _image(chain, _reflectors(_targets([5, -18], [3, 8], [1.5, 2.4])), seed=6)
     counts = list(found.passed.values())
     assert list(found.passed) == ["threshold", "range_peak", "main_lobe_peak", "side_lobe",
-                                  "clutter", "trusted"]
+                                  "range_side_lobe", "clutter", "trusted"]
     assert counts == sorted(counts, reverse=True) and counts[-1] == len(found) == 2, counts
 
 
