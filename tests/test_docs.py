@@ -59,6 +59,8 @@ QUICK: list[tuple[str, dict | str]] = [
     ("mitsonar dataset render scenes/office/scene.xml --out out/office_ds --period 1 --step 10 "
      "--width 400 --spp 16 --workers 2",
      {"--samples": "1", "--step": "20", "--width": "32", "--spp": "1", "--workers": "1"}),
+    ("mitsonar dataset render scenes/workshop/scene.xml --out out/workshop_images --scan image "
+     "--broadband --chirp --period 0.2", {"--samples": "1", "--width": "32", "--spp": "1"}),
     ("mitsonar dataset info out/office_ds", {}),
     ("mitsonar dataset export out/office_ds --out out/office_ds.mcap", {}),
     ("mitsonar map surfel room_glass --duration 20 --out out/room_surfels --record "

@@ -129,6 +129,31 @@ def add_preset_argument(parser) -> None:
                              "(default: default)")
 
 
+def add_drive_arguments(parser, sweep_use: str) -> None:
+    """``--broadband`` and ``--chirp``: the transducers and the drive (``SonarConfig.with_drive``;
+    ``sweep_use`` says what the sweep is for)."""
+    parser.add_argument("--broadband", action="store_true",
+                        help="broadband transducers (20 kHz at -6 dB) instead of the 2 kHz TCT40 "
+                             "class")
+    parser.add_argument("--chirp", action="store_true",
+                        help="drive the transmission with a 4 ms 30-50 kHz frequency sweep "
+                             "instead of the tone burst (needs --broadband or --preset paper; "
+                             f"{sweep_use})")
+
+
+def drive_config(args):
+    """The ``--preset`` configuration with ``--broadband`` and ``--chirp``
+    (:func:`add_drive_arguments`); a sweep behind the TCT40 class is refused naming the
+    options."""
+    from mitsonar.sensors.sonar import SonarConfig
+
+    config = SonarConfig.preset(args.preset)
+    if args.chirp and not args.broadband and config.transducer_response:
+        raise ValueError("--chirp needs --broadband or --preset paper: the TCT40 class "
+                         "transducers pass 2 kHz, not a 20 kHz sweep")
+    return config.with_drive(args.broadband, args.chirp)
+
+
 def add_echoes_argument(parser, default: str, what: str) -> None:
     """The ``--echoes`` option: which echoes of each beam ``what`` takes
     (``DetectionSettings.echoes``)."""

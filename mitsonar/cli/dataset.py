@@ -6,10 +6,10 @@ from pathlib import Path
 
 import numpy as np
 
-from mitsonar.cli.arguments import (add_echoes_argument, add_preset_argument,
-                                    add_scene_argument, command_group, output_directory,
-                                    output_file)
-from mitsonar.data.dataset import DatasetSpec, open_dataset, render_dataset
+from mitsonar.cli.arguments import (add_drive_arguments, add_echoes_argument,
+                                    add_preset_argument, add_scene_argument, command_group,
+                                    drive_config, output_directory, output_file)
+from mitsonar.data.dataset import SCANS, DatasetSpec, open_dataset, render_dataset
 
 
 def add_cli(subparsers) -> None:
@@ -35,6 +35,11 @@ def add_cli(subparsers) -> None:
                         "(default 0)")
     add_preset_argument(r)
     add_echoes_argument(r, DatasetSpec.echoes, "recorded, with their attributes")
+    r.add_argument("--scan", choices=SCANS, default=DatasetSpec.scan,
+                   help="what the sonar records per sample: a beam scan over the field of view "
+                        "('beams', --step, --echoes) or one single-ping receive image ('image', "
+                        "every point of it with its attributes) (default: beams)")
+    add_drive_arguments(r, "with --scan image, the most points per image: docs/imaging.md")
     r.add_argument("--workers", type=int, default=1, help="local worker processes (default 1)")
     r.add_argument("--scheduler", default=None,
                    help="Dask scheduler address, or 'local' for a Dask LocalCluster of --workers "
@@ -61,9 +66,11 @@ def _run_render(args) -> int:
 
     if not args.scene.is_file():
         raise ValueError(f"{args.scene}: scene file not found")
+    drive_config(args)  # a sweep the transducers cannot pass, named by its options
     spec = DatasetSpec(str(args.scene), period=args.period, scan_step=np.radians(args.step),
                        image_width=args.width, spp=args.spp, seed=args.seed,
-                       max_samples=args.samples, sonar_preset=args.preset, echoes=args.echoes)
+                       max_samples=args.samples, sonar_preset=args.preset, echoes=args.echoes,
+                       scan=args.scan, broadband=args.broadband, chirp=args.chirp)
     total = len(spec.timeline()[0])
     with tqdm(total=total, desc="samples", unit="sample", file=sys.stderr) as bar:
         done = sum((args.out / "samples" / f"{k:06d}" / "manifest.json").exists() for k in range(total))

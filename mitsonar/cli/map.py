@@ -6,15 +6,16 @@ import sys
 
 import numpy as np
 
-from mitsonar.cli.arguments import (add_echoes_argument, add_output_argument,
-                                    add_preset_argument, add_record_argument, add_scene_argument,
-                                    add_trajectory_argument, command_group, trajectory_from_args)
+from mitsonar.cli.arguments import (add_drive_arguments, add_echoes_argument,
+                                    add_output_argument, add_preset_argument, add_record_argument,
+                                    add_scene_argument, add_trajectory_argument, command_group,
+                                    drive_config, trajectory_from_args)
 from mitsonar.recon.repeated import REGISTRATIONS, SCANS, RepeatedMapSpec, map_repeated
 from mitsonar.recon.surfels import (SurfelSettings, map_surfels, map_surfels_along,
                                     save_surfel_map, summary)
 from mitsonar.recon.voxelmap import VoxelMapSettings, save_voxel_figure, save_voxel_ply
 from mitsonar.sensors.camera import CameraModel
-from mitsonar.sensors.sonar import Sonar, SonarConfig
+from mitsonar.sensors.sonar import Sonar
 from mitsonar.sensors.trajectory import sensor_poses
 
 
@@ -35,16 +36,11 @@ def add_cli(subparsers) -> None:
     r.add_argument("--step", type=float, default=5.0, help="beam grid step [deg] (default 5)")
     r.add_argument("--voxel", type=float, default=0.05, help="voxel size [m] (default 0.05)")
     add_preset_argument(r)
-    r.add_argument("--broadband", action="store_true",
-                   help="broadband transducers (20 kHz at -6 dB) instead of the 2 kHz TCT40 class")
+    add_drive_arguments(r, "with --scan imaging, the most points per second: docs/imaging.md")
     r.add_argument("--scan", choices=SCANS, default="ofdm",
                    help="OFDM frames back to back ('ofdm', the paper's) or single-ping receive "
                         "images, one per listening cycle, a camera image every 0.2 s "
                         "('imaging') (default: ofdm)")
-    r.add_argument("--chirp", action="store_true",
-                   help="drive the transmission with a 4 ms 30-50 kHz frequency sweep instead "
-                        "of the tone burst (needs --broadband or --preset paper; with --scan "
-                        "imaging, the most points per second: docs/imaging.md)")
     r.add_argument("--registration", choices=REGISTRATIONS, default="beam",
                    help="pose of the points: each beam's pose at firing ('beam') or one odometry "
                         "pose per frame ('frame', the paper's) (default: beam)")
@@ -86,23 +82,9 @@ def _drive(args):
 
 
 def _run_repeated(args) -> int:
-    from dataclasses import replace
-
     from tqdm import tqdm
 
-    from mitsonar.physics.transducer import Transducer
-    from mitsonar.physics.waveforms import Chirp
-
-    config = SonarConfig.preset(args.preset)
-    if args.broadband:
-        config = replace(config, transducer=Transducer.broadband())
-    if args.chirp:
-        if config.transducer_response and not args.broadband:
-            raise ValueError("--chirp needs --broadband or --preset paper: the TCT40 class "
-                             "transducers pass 2 kHz, not a 20 kHz sweep")
-        config = replace(config, pulse=Chirp())
-    if args.record is not None and args.scan != "ofdm":
-        raise ValueError("--record needs --scan ofdm: single-ping images are not recorded yet")
+    config = drive_config(args)
     trajectory, driven = _drive(args)
     spec = RepeatedMapSpec(frames=args.frames, duration=driven, scan_step=np.radians(args.step),
                            voxels=VoxelMapSettings(voxel_size=args.voxel),

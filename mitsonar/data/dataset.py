@@ -9,7 +9,9 @@ On disk (format version 1)::
         shape_index.png        16-bit PNG: index+1 into dataset.json's shape_ids (0: nothing)
         echoes.npz             per-microphone echoes of the scan and its detections: every echo
                                of every beam with its attributes (the keys of ``mitsonar
-                               scan``'s echoes.npz)
+                               scan``'s echoes.npz); with ``scan='image'`` one single-ping
+                               receive image as a scan of one transmission (its recording,
+                               every point of it a row of the echo table)
         pose.json              time, robot pose (ground truth and odometry), sensor poses
         manifest.json          size and SHA-256 of every file above, written last
 
@@ -39,6 +41,7 @@ from pathlib import Path
 import numpy as np
 
 from mitsonar.sensors.camera import CameraModel, CameraRenderer, srgb8
+from mitsonar.sensors.imaging_sonar import ImagingSonar
 from mitsonar.io import atomic_path
 from mitsonar.sensors.sonar import Sonar, SonarConfig
 from mitsonar.signal.detection import ECHO_MODES
@@ -46,6 +49,8 @@ from mitsonar.sensors.trajectory import OdometryDrift, Trajectory, sensor_poses
 from mitsonar.validation import check_positive
 
 FORMAT_VERSION = 1
+#: What a sample's sonar records (``DatasetSpec.scan``).
+SCANS = ("beams", "image")
 _FILES = ("rgb.exr", "rgb.png", "gray.exr", "gray.png", "depth.exr", "shape_index.png",
           "echoes.npz", "pose.json")
 
@@ -72,6 +77,12 @@ class DatasetSpec:
         sonar_preset: 'default' or 'paper'.
         echoes: which echoes of each beam ``echoes.npz`` records in its echo table, with their
             attributes (``DetectionSettings.echoes``: 'first', 'all', 'cells' or 'image').
+        scan: 'beams' (the beam grid over the field of view, ``scan_step``, ``echoes``) or
+            'image' (one single-ping receive image per sample, :meth:`ImagingSonar.scan
+            <mitsonar.sensors.imaging_sonar.ImagingSonar.scan>`).
+        broadband: broadband transducers (20 kHz at -6 dB) instead of the 2 kHz TCT40 class.
+        chirp: drive the default 30-50 kHz sweep instead of the tone burst (needs
+            ``broadband`` or the 'paper' preset).
     """
 
     scene: str
@@ -87,6 +98,9 @@ class DatasetSpec:
     odometry: OdometryDrift = field(default_factory=OdometryDrift)
     sonar_preset: str = "default"
     echoes: str = "all"
+    scan: str = "beams"
+    broadband: bool = False
+    chirp: bool = False
 
     def __post_init__(self):
         check_positive("DatasetSpec.period [s]", self.period)
@@ -98,6 +112,10 @@ class DatasetSpec:
         if self.echoes not in ECHO_MODES:
             raise ValueError(f"DatasetSpec.echoes must be one of {', '.join(ECHO_MODES)}, "
                              f"got {self.echoes!r}")
+        if self.scan not in SCANS:
+            raise ValueError(f"DatasetSpec.scan must be one of {', '.join(SCANS)}, "
+                             f"got {self.scan!r}")
+        self.sonar_config()  # a sweep the transducers cannot pass is refused here
         if self.trajectory is not None:
             object.__setattr__(self, "trajectory", tuple(map(tuple, np.asarray(self.trajectory, float))))
 
@@ -113,8 +131,10 @@ class DatasetSpec:
         return cls(**data)
 
     def sonar_config(self) -> SonarConfig:
-        """The sonar's configuration: ``sonar_preset``, recording ``echoes``."""
-        return SonarConfig.preset(self.sonar_preset).with_detection(echoes=self.echoes)
+        """The sonar's configuration: ``sonar_preset``, ``broadband``, ``chirp``, recording
+        ``echoes``."""
+        return SonarConfig.preset(self.sonar_preset).with_drive(
+            self.broadband, self.chirp).with_detection(echoes=self.echoes)
 
     def build_trajectory(self) -> Trajectory:
         if self.trajectory is None:
@@ -145,6 +165,7 @@ class _Renderer:
                                      CameraModel(spp=spec.spp).at_resolution(spec.image_width))
         self.times, self.truth, self.odometry = spec.timeline()
         self.directions = self.sonar.fov_grid(spec.scan_step)
+        self.imaging = ImagingSonar(self.sonar) if spec.scan == "image" else None
 
     def render(self, out: Path, index: int) -> None:
         """Write sample ``index`` into ``out/samples`` atomically."""
@@ -155,7 +176,8 @@ class _Renderer:
         pose = sensor_poses(self.truth[index: index + 1])[0]
         seed = _derive_seed(self.spec.seed, "sample", index)
         images = self.camera.render(pose, seed=seed)
-        scan = self.sonar.scan(pose, self.directions, seed=seed)
+        scan = self.sonar.scan(pose, self.directions, seed=seed) if self.imaging is None \
+            else self.imaging.scan(pose, seed=seed)
         tmp = Path(tempfile.mkdtemp(dir=out / "samples", prefix=f".{index:06d}."))
         try:
             mi.Bitmap(images.rgb).write(str(tmp / "rgb.exr"))

@@ -3,8 +3,9 @@
 A run is recorded on its simulated clock (the trajectory's time [s]): each camera image at the
 time it was taken, each sonar echo (every row of the echo table, with its attributes) at its
 beam's firing time, in ``sonar_optical`` (an OFDM frame's beams fire one slot apart while the
-robot moves: one ``/sonar/detections`` cloud per beam, empty when the beam detected nothing; a
-surfel run pings from a pose that the robot holds: one cloud per scan, at the pose's time), and
+robot moves: one ``/sonar/detections`` cloud per beam, empty when the beam detected nothing;
+single-ping images: one cloud per image, every point of it; a surfel run pings from a pose that
+the robot holds: one cloud per scan, at the pose's time), and
 the final map (``/map``, world frame) at the end. The robot's frames (``/tf``) are written at
 every one of these times and at the wheel odometry's rate, so that a viewer places every
 detection with its beam's exact pose. Map recordings carry no per-channel echoes (an OFDM cycle
@@ -61,21 +62,23 @@ class RunTimeline:
 def record_repeated(path, scanned, voxels, trajectory: Trajectory, seed: int = 0) -> dict:
     """Record a repeated-scanning run (the frames and voxel map of
     :func:`~mitsonar.recon.repeated.map_repeated`) as ``path``; returns the messages per topic."""
-    if any(s.frame is None for s in scanned):
-        raise ValueError("recording a repeated-scanning run needs OFDM frames (scan 'ofdm'); "
-                         "single-ping images are not recorded yet")
     recorder = McapRecorder()
     camera = CameraModel().at_resolution(scanned[0].image.shape[1])
     recorder.static_frames(0.0, Pose.sensor_mount(), camera.camera_from_sensor())
     stamps = []
     for s in scanned:
-        frame = s.frame
-        recorder.camera(frame.start_time, camera.intrinsics(), srgb8(s.image), "rgb8")
-        fired = frame.start_time + frame.schedule.transmit_time
-        table = frame.echo_table
-        for b, t in enumerate(fired):
-            recorder.detections(t, table.take(table.beam == b), frame.schedule.code_index[b])
-        stamps += [frame.start_time, *fired]
+        recorder.camera(s.start_time, camera.intrinsics(), srgb8(s.image), "rgb8")
+        if s.frame is not None:  # an OFDM frame: a cloud per beam, at its firing time
+            fired = s.start_time + s.frame.schedule.transmit_time
+            table = s.frame.echo_table
+            for b, t in enumerate(fired):
+                recorder.detections(t, table.take(table.beam == b),
+                                    s.frame.schedule.code_index[b])
+        else:  # single-ping images: a cloud per image, at its firing time
+            fired = np.array(s.image_times)
+            for t, table in zip(fired, s.image_tables):
+                recorder.detections(t, table, PULSE_CODE)
+        stamps += [s.start_time, *fired]
     end = max(stamps)
     RunTimeline(trajectory, end, seed).record(recorder, stamps)
     recorder.map(end, voxels.positions, voxels.display_colours(), count=voxels.counts)

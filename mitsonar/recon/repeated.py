@@ -146,6 +146,9 @@ class ScannedFrame:
         pose: world-from-sensor pose of the head at the frame's start (odometry stamp, image).
         frame: the decoded OFDM frame (None for images).
         images: the single-ping images (empty for an OFDM frame).
+        image_times: when each image was fired on the trajectory's clock [s].
+        image_tables: each image's points as an echo table
+            (:meth:`~mitsonar.sensors.imaging_sonar.ImagingSonar.echo_table`, for recordings).
     """
 
     points: np.ndarray
@@ -155,6 +158,8 @@ class ScannedFrame:
     pose: Pose
     frame: Frame | None = None
     images: tuple = ()
+    image_times: tuple = ()
+    image_tables: tuple = ()
 
 
 def scan_repeated(sonar: Sonar, trajectory: Trajectory, spec: RepeatedMapSpec = RepeatedMapSpec(),
@@ -182,11 +187,14 @@ def scan_repeated(sonar: Sonar, trajectory: Trajectory, spec: RepeatedMapSpec = 
         duration = per_frame * cycle
 
         def fire(start: float, k: int):
-            images = tuple(imaging.image(pose_at(start + i * cycle), seed=beam_seed(
-                spec.seed + k, i)) for i in range(per_frame))
+            times = tuple(start + i * cycle for i in range(per_frame))
+            images = tuple(imaging.image(pose_at(t), seed=beam_seed(spec.seed + k, i))
+                           for i, t in enumerate(times))
             poses = [np.broadcast_to(im.pose.matrix(), (len(im), 4, 4)) for im in images]
             return dict(points=np.concatenate([im.points_sensor for im in images]),
-                        world_from_sensor=np.concatenate(poses), images=images)
+                        world_from_sensor=np.concatenate(poses), images=images,
+                        image_times=times,
+                        image_tables=tuple(imaging.echo_table(im) for im in images))
     interval = duration if spec.interval is None else spec.interval
     if interval < duration:
         raise ValueError(f"RepeatedMapSpec.interval [s] must be at least the frame duration "

@@ -43,7 +43,9 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from mitsonar.frames import Pose, direction_from_fov_angles
-from mitsonar.sensors.sonar import Sonar
+from mitsonar.sensors.sonar import Scan, Sonar
+from mitsonar.signal.band import Recording
+from mitsonar.signal.detection import Echoes
 from mitsonar.signal.imaging import ImagePoints, ImagingSettings, ReceiveImager
 from mitsonar.trace.tracer import AcousticTracer, TraceSettings
 from mitsonar.validation import check_range
@@ -164,6 +166,7 @@ class Image:
         pose: world-from-sensor pose of the ping.
         points_sensor: (P, 3) reflectors in the sensor frame [m].
         direction: (P, 3) unit arrival directions, sensor frame (from the receive origin).
+        path_length: (P,) the emission's source -> reflector -> receive origin [m].
         amplitude: (P,) image value at each point [Pa].
         snr: (P,) amplitude over the RMS noise envelope.
         coherence: (P,) share of the channels' power one plane wave from each point's direction
@@ -175,11 +178,13 @@ class Image:
             (:class:`~mitsonar.signal.imaging.ReceiveImager`; zeros in its corners).
         envelopes: (D, N) the image [Pa] (None unless asked for).
         times: (N,) times of its samples after the transmission [s].
+        recording: the per-channel recording it was formed from (None unless asked for).
     """
 
     pose: Pose
     points_sensor: np.ndarray
     direction: np.ndarray
+    path_length: np.ndarray
     amplitude: np.ndarray
     snr: np.ndarray
     coherence: np.ndarray
@@ -187,6 +192,7 @@ class Image:
     directions: np.ndarray
     envelopes: np.ndarray | None
     times: np.ndarray
+    recording: Recording | None = None
 
     @property
     def points_world(self) -> np.ndarray:
@@ -249,7 +255,7 @@ class ImagingSonar:
         return len(self.emissions)
 
     def image(self, pose: Pose, seed: int = 0, keep_envelopes: bool = False,
-              ping: int = 0) -> Image:
+              ping: int = 0, keep_recording: bool = False) -> Image:
         """Transmit once from ``pose`` (world-from-sensor) and image the recording.
 
         Args:
@@ -257,6 +263,7 @@ class ImagingSonar:
             seed: seeds the diffuse phases and the receiver noise (same seed, same image).
             keep_envelopes: keep the image itself (D x N values) in :attr:`Image.envelopes`.
             ping: which ping of a frame (its sector with 'sectors'), in [0, pings_per_frame).
+            keep_recording: keep the per-channel recording in :attr:`Image.recording`.
         """
         if not (int(ping) == ping and 0 <= ping < self.pings_per_frame):
             raise ValueError(f"ping must be an integer in [0, {self.pings_per_frame}), got {ping}")
@@ -277,6 +284,42 @@ class ImagingSonar:
         found: ImagePoints = imager.points(envelopes, channels, recording.start_time
                                            + emission.lead / cfg.medium.speed_of_sound,
                                            self.direct_image)
-        return Image(pose, found.points, found.direction, found.amplitude, found.snr,
-                     found.coherence, found.passed, imager.directions,
-                     envelopes if keep_envelopes else None, recording.times)
+        return Image(pose, found.points, found.direction, found.path_length, found.amplitude,
+                     found.snr, found.coherence, found.passed, imager.directions,
+                     envelopes if keep_envelopes else None, recording.times,
+                     recording if keep_recording else None)
+
+    def echo_table(self, image: Image, ping: int = 0) -> Echoes:
+        """The points of ``image`` (of ping ``ping``) as an echo table of one transmission
+        (beam 0), strongest first: every point a peak with its arrival direction, time of
+        arrival (path length / c from the emission) and depth (its distance from the
+        emission's source)."""
+        order = np.argsort(-image.amplitude, kind="stable")
+        count = len(order)
+        points = image.points_sensor[order]
+        return Echoes(np.zeros(count, int), np.arange(count), np.ones(count, bool),
+                      image.amplitude[order], image.snr[order],
+                      image.path_length[order] / self.sonar.config.medium.speed_of_sound,
+                      image.path_length[order],
+                      np.linalg.norm(points - self.emissions[ping].source, axis=1), points,
+                      image.direction[order], image.coherence[order], np.zeros(count, bool))
+
+    def scan(self, pose: Pose, seed: int = 0, ping: int = 0) -> Scan:
+        """One image (:meth:`image`) as a :class:`~mitsonar.sensors.sonar.Scan` of one
+        transmission, the format of ``mitsonar scan``'s and datasets' ``echoes.npz``: its
+        recording as the beam's echoes (1, N_rx, N), its points as the echo table
+        (:meth:`echo_table`), the strongest as the beam's detection, the direction of the
+        emission's axis (broadside, or its sector's centre) as the beam's."""
+        image = self.image(pose, seed=seed, ping=ping, keep_recording=True)
+        table = self.echo_table(image, ping)
+        found = len(table.beam) > 0
+        region = self.emissions[ping].region
+        axis = BROADSIDE if region is None else direction_from_fov_angles(
+            0.5 * (region[0] + region[1]), 0.5 * (region[2] + region[3]))
+        rec = image.recording
+        return Scan(pose, np.reshape(axis, (1, 3)), np.array([found]),
+                    np.array([table.depth[0] if found else np.nan]),
+                    np.array([table.amplitude[0] if found else 0.0]),
+                    table.point[:1] if found else np.full((1, 3), np.nan), table,
+                    rec.samples[None].astype(np.complex64 if rec.carrier else np.float32),
+                    rec.sample_rate, rec.start_time, rec.carrier)

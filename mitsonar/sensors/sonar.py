@@ -174,6 +174,19 @@ class SonarConfig:
         except (TypeError, ValueError) as err:
             raise ValueError(f"{path}: {err}") from None
 
+    def with_drive(self, broadband: bool = False, chirp: bool = False) -> "SonarConfig":
+        """This configuration with broadband transducers (``Transducer.broadband()``, 20 kHz
+        at -6 dB) and/or driven by the default frequency sweep (``Chirp()``, 30-50 kHz, for
+        single-ping imaging); a sweep needs transducers that pass it: broadband ones, or the
+        ideal ones of ``paper`` (ValueError otherwise)."""
+        config = replace(self, transducer=Transducer.broadband()) if broadband else self
+        if chirp:
+            if config.transducer_response and config.transducer.bandwidth_6db < Chirp().bandwidth:
+                raise ValueError(f"a 30-50 kHz sweep needs broadband transducers or the paper "
+                                 f"preset: these pass {config.transducer.bandwidth_6db:g} Hz")
+            config = replace(config, pulse=Chirp())
+        return config
+
     def with_detection(self, **changes) -> "SonarConfig":
         """This configuration with ``changes`` to its :class:`DetectionSettings` (checked as
         there), e.g. ``config.with_detection(echoes="cells")``."""

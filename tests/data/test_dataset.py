@@ -100,3 +100,40 @@ def test_truncated_file_is_reported_by_name(reference, tmp_path):
 def test_local_processes_and_dask_cluster_give_the_same_dataset(reference, tmp_path):
     assert _same_tree(reference, render_dataset(SPEC, tmp_path / "pool", workers=2))
     assert _same_tree(reference, render_dataset(SPEC, tmp_path / "dask", workers=2, scheduler="local"))
+
+
+def test_image_samples_hold_one_single_ping_image_and_export(tmp_path):
+    """``scan='image'``: each sample's echoes.npz is one single-ping receive image as a scan of
+    one transmission (``ImagingSonar.scan``, the same seed): its recording (1, 25, N) and every
+    point of it as a row of the echo table, strongest first; the MCAP export carries them (one
+    detections cloud with every point, one echoes message). A sweep behind the TCT40 class is
+    refused when the spec is made."""
+    from mitsonar.data.dataset import _derive_seed
+    from mitsonar.data.dataset_mcap import export_dataset
+    from mitsonar.data.ros_messages import cloud_columns
+    from mitsonar.sensors.trajectory import sensor_poses
+    from helpers import read_mcap
+
+    spec = DatasetSpec(ROOM, period=2.0, image_width=24, spp=2, max_samples=1, scan="image",
+                       broadband=True, chirp=True)
+    ds = open_dataset(render_dataset(spec, tmp_path / "images"))
+    sample = ds[0]
+    renderer = _Renderer(spec)
+    sensor = sensor_poses(np.array([sample.pose["robot_pose_truth"]]))[0]
+    scan = renderer.imaging.scan(sensor, seed=_derive_seed(spec.seed, "sample", 0))
+    e = sample.echoes
+    assert e["echoes"].shape[:2] == (1, 25) and np.array_equal(e["echoes"], scan.echoes)
+    assert len(e["echo_beam"]) > 0 and np.all(e["echo_beam"] == 0)
+    np.testing.assert_array_equal(e["echo_rank"], np.arange(len(e["echo_beam"])))
+    assert np.all(np.diff(e["echo_amplitude"]) <= 0)  # strongest first
+    np.testing.assert_array_equal(e["echo_point"], scan.echo_table.point)
+    np.testing.assert_array_equal(e["points_sensor"][0], e["echo_point"][0])
+    read = read_mcap(tmp_path / "images.mcap") if export_dataset(
+        tmp_path / "images", tmp_path / "images.mcap") else []
+    (cloud,) = [m for topic, _, m in read if topic == "/sonar/detections"]
+    assert len(cloud_columns(cloud)["x"]) == len(e["echo_beam"])
+    assert sum(topic == "/sonar/echoes" for topic, _, _ in read) == 1
+    with pytest.raises(ValueError, match="sweep"):
+        DatasetSpec(ROOM, scan="image", chirp=True)
+    with pytest.raises(ValueError, match="scan"):
+        DatasetSpec(ROOM, scan="sweep")

@@ -108,3 +108,42 @@ def test_repeated_run_records_every_beam_at_its_firing_time_and_pose(wall_run, t
     m = cloud_columns(last_map)
     assert last_map.header.frame_id == "world" and len(m["x"]) == len(voxels)
     np.testing.assert_array_equal(m["x"], voxels.positions[:, 0].astype(np.float32))
+
+
+def test_an_image_run_records_every_image_at_its_firing_time_and_pose(scene_file, tmp_path):
+    """Repeated mode with single-ping images (a 30-50 kHz sweep, broadband transducers): one
+    ``/sonar/detections`` cloud per image at its firing time, the sensor's frame there the
+    image's pose, every point of the image in it, strongest first (rank 0), with its arrival
+    direction, SNR and coherence; one camera image per frame."""
+    from mitsonar.sensors.imaging_sonar import TransmitSettings
+
+    wall = rectangle_xml("w", (2.1, 0.0, 0.5), (0, -90, 0), size=(10, 10))
+    light = '<emitter type="constant"><rgb name="radiance" value="1"/></emitter>'
+    config = SonarConfig().with_drive(broadband=True, chirp=True)
+    sonar = Sonar(scene_file("wall", material_xml("w", preset="concrete"), wall, light), config)
+    trajectory = Trajectory(np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]]), speed=0.5)
+    spec = RepeatedMapSpec(frames=1, scan="imaging", image_width=32, spp=1,
+                           transmit=TransmitSettings(rays_per_axis=24))
+    voxels, _, frames = map_repeated(sonar, trajectory, spec)
+    out = tmp_path / "run.mcap"
+    counts = record_repeated(out, frames, voxels, trajectory, seed=3)
+    read = read_mcap(out)
+    (frame,) = frames
+    fired = np.round(np.array(frame.image_times) * 1e9).astype(int)
+    assert counts["/sonar/detections"] == len(frame.images) == len(fired) > 1
+    assert counts["/camera/image"] == 1
+    clouds = {t: m for topic, t, m in read if topic == "/sonar/detections"}
+    assert sum(len(image) for image in frame.images) > 0
+    for ns, image, table in zip(fired, frame.images, frame.image_tables):
+        cloud = cloud_columns(clouds[ns])
+        pose = world_from(tf_tree(read, ns), "sonar_optical")
+        np.testing.assert_allclose(pose.matrix(), image.pose.matrix(), atol=1e-9)
+        assert len(cloud["x"]) == len(image)
+        np.testing.assert_array_equal(cloud["rank"], np.arange(len(image)))
+        strongest = np.argsort(-image.amplitude, kind="stable")
+        for name, column in (("x", image.points_sensor[strongest, 0]),
+                             ("snr", image.snr[strongest]),
+                             ("arrival_z", image.direction[strongest, 2]),
+                             ("coherence", image.coherence[strongest])):
+            np.testing.assert_array_equal(cloud[name], np.float32(column))
+        np.testing.assert_array_equal(table.point, image.points_sensor[strongest])
