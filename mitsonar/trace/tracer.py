@@ -108,9 +108,10 @@ class TraceSettings:
             absorption are evaluated, spread evenly over the band (the wider of the drive's and
             the transducers' bandwidths), the paths' gains interpolated linearly between them
             (:mod:`~mitsonar.trace.subbands`); 1 (the default): once, at the drive's centre,
-            which holds over narrow bands (across 30-50 kHz the piston pattern at the field of
-            view's corner stays within +1.8/-2.6 dB of its 40 kHz value). A 20-80 kHz sweep
-            needs 5 (docs/imaging.md). Costs about that many times the synthesis.
+            which holds over narrow bands (the TCT40's 2 kHz; across 30-50 kHz a rigid wall's
+            echo spectrum is then +2.2/-2.6 dB off the image source at the band's edges, two
+            nodes bring it within 0.4 dB; a 20-80 kHz sweep needs 5, docs/physics.md). Costs
+            about that many times the synthesis.
     """
 
     model: str = "physical"
