@@ -148,7 +148,7 @@ MARKERS = {"sequential_first": "s", "sequential_all": "D", "sequential_cells": "
            "ofdm_first": "o", "ofdm_all": "^", "ofdm_cells": "v", "ofdm_trusted": "p",
            "ofdm_image": "X",
            "imaging": "*", "imaging_trust_0.35": "<", "imaging_trust_0.5": ">",
-           "imaging_chirp": "h", "imaging_chirp_trust_0.35": "H", "imaging_chirp_trust_0.5": "8",
+           "imaging_chirp": "h", "imaging_chirp_trust_0.35": "3", "imaging_chirp_trust_0.5": "4",
            "imaging_chirp_wide": "d", "imaging_chirp_wide_trust_0.35": "1",
            "imaging_chirp_wide_trust_0.5": "2"}
 
