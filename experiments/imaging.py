@@ -165,6 +165,8 @@ class RunSettings:
         rays_per_axis: rays per axis of the physical model's beams (None: ``TraceSettings``'s).
         image_rays_per_axis: rays per axis of an image's wide transmission (physical model).
         seed: seeds the sonar, the LiDAR's noise, the samples and the thinning.
+        subbands: frequency nodes of every configuration's trace (``TraceSettings.subbands``;
+            None: its default, one); ``imaging_chirp_wide`` always takes five.
     """
 
     duration: float | None
@@ -174,6 +176,7 @@ class RunSettings:
     rays_per_axis: int | None
     image_rays_per_axis: int
     seed: int
+    subbands: int | None = None
 
 
 @dataclass
@@ -218,6 +221,8 @@ def sonar_for(path: Path, preset: str, settings: RunSettings) -> mitsonar.Sonar:
     config = config_for(preset)
     trace = config.trace if settings.rays_per_axis is None else \
         replace(config.trace, rays_per_axis=settings.rays_per_axis)
+    if settings.subbands is not None:
+        trace = replace(trace, subbands=settings.subbands)
     return mitsonar.Sonar(path, replace(config, trace=trace).with_detection(echoes="cells"))
 
 
@@ -511,6 +516,9 @@ def main(argv=None) -> int:
     parser.add_argument("--spacing", type=float, default=0.01,
                         help="ground-truth sample spacing [m] (default 0.01)")
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--subbands", type=int, default=None,
+                        help="trace every configuration at this many frequency nodes "
+                             "(TraceSettings.subbands; default 1; imaging_chirp_wide: 5)")
     parser.add_argument("--quick", action="store_true",
                         help="office, 0.3 s of driving, 20 deg grid, 16 rays per axis per beam "
                              "and 32 per image, 5 cm ground truth (for the test suite)")
@@ -519,8 +527,10 @@ def main(argv=None) -> int:
                               for option, known in choices.items())
     if args.stride < 1:
         raise ValueError(f"--stride must be >= 1, got {args.stride}")
+    if args.subbands is not None and not 1 <= args.subbands <= 16:
+        parser.error(f"--subbands must be in 1..16, got {args.subbands}")
     settings = RunSettings(args.duration, args.stride, np.radians(args.step), args.spacing, None,
-                           TransmitSettings.rays_per_axis, args.seed)
+                           TransmitSettings.rays_per_axis, args.seed, args.subbands)
     if args.quick:
         scenes = ["office"]
         settings = replace(settings, duration=0.3, step=np.radians(20.0), spacing=0.05,
