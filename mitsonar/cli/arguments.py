@@ -147,11 +147,10 @@ def drive_config(args):
     options."""
     from mitsonar.sensors.sonar import SonarConfig
 
-    config = SonarConfig.preset(args.preset)
-    if args.chirp and not args.broadband and config.transducer_response:
-        raise ValueError("--chirp needs --broadband or --preset paper: the TCT40 class "
-                         "transducers pass 2 kHz, not a 20 kHz sweep")
-    return config.with_drive(args.broadband, args.chirp)
+    try:
+        return SonarConfig.preset(args.preset).with_drive(args.broadband, args.chirp)
+    except ValueError as error:  # the sweep behind transducers that do not pass it
+        raise ValueError(f"--chirp needs --broadband or --preset paper: {error}") from None
 
 
 def add_echoes_argument(parser, default: str, what: str) -> None:

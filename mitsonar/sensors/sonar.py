@@ -182,8 +182,8 @@ class SonarConfig:
         config = replace(self, transducer=Transducer.broadband()) if broadband else self
         if chirp:
             if config.transducer_response and config.transducer.bandwidth_6db < Chirp().bandwidth:
-                raise ValueError(f"a 30-50 kHz sweep needs broadband transducers or the paper "
-                                 f"preset: these pass {config.transducer.bandwidth_6db:g} Hz")
+                raise ValueError(f"a 30-50 kHz sweep needs transducers that pass it: these pass "
+                                 f"{config.transducer.bandwidth_6db / 1e3:g} kHz")
             config = replace(config, pulse=Chirp())
         return config
 

@@ -188,6 +188,15 @@ class ImagePoints:
         return len(self.points)
 
 
+def _range_side_lobes(envelope: np.ndarray) -> np.ndarray:
+    """(N,) |R| at lags 0 .. N - 1 [samples] of one echo's matched-filter envelope (N,) (its
+    peak at lag 0): normalised to its peak, zero over its main lobe (up to its first minimum)."""
+    lobes = envelope / envelope[0]
+    rising = np.diff(lobes) >= 0
+    lobes[: int(np.argmax(rising)) + 1 if rising.any() else len(lobes)] = 0.0
+    return lobes.astype(np.float32)
+
+
 class ReceiveImager:
     """Receive images of recordings on one band, and their points; built once per sensor and
     reused (grid, steering factors, side-lobe table).
@@ -265,8 +274,11 @@ class ReceiveImager:
         if self.threshold <= 0:
             raise ValueError("imaging without receiver noise needs ImagingSettings."
                              "detection_floor > 0")
-        self.range_resolution, self._range_window = self._resolution()
-        self._range_lobes = self._range_side_lobes()
+        # One echo's matched-filter envelope at lags 0 .. N - 1 [samples] (even in the lag):
+        # the autocorrelation of the system spectrum, its peak at lag 0.
+        echo = np.abs(band.to_analytic(np.abs(band.system_spectrum()[band.bins]) ** 2))
+        self.range_resolution, self._range_window = self._resolution(echo)
+        self._range_lobes = _range_side_lobes(echo)
         centre, _ = band.band_moments()
         self._main_lobe = np.sin(detection.ghost_exclusion)
         self._side_lobes, self._lobe = self._lobe_tables(offsets, 2 * np.pi * centre / self.c)
@@ -276,27 +288,13 @@ class ReceiveImager:
         self._min_path = r + np.linalg.norm(geometry.rx_origin + r * self.directions
                                             - transmit_centre, axis=1)
 
-    def _resolution(self) -> tuple[float, int]:
-        """(full width at half maximum of an echo's matched-filter envelope [s], the same in
-        whole samples, at least 1): from the autocorrelation of the system spectrum."""
-        band = self.band
-        envelope = np.abs(band.to_analytic(np.abs(band.system_spectrum()[band.bins]) ** 2))
-        below = int(np.argmax(envelope < 0.5 * envelope[0]))  # lag 0 is the peak
+    def _resolution(self, envelope: np.ndarray) -> tuple[float, int]:
+        """(full width at half maximum of an echo's matched-filter envelope (N,) (its peak at
+        lag 0) [s], the same in whole samples, at least 1)."""
+        below = int(np.argmax(envelope < 0.5 * envelope[0]))
         a, b = envelope[below - 1], envelope[below]
         half = below - 1 + (a - 0.5 * envelope[0]) / (a - b)  # [samples]
-        return 2 * half / band.sample_rate, max(1, int(round(2 * half)))
-
-    def _range_side_lobes(self) -> np.ndarray:
-        """(N,) |R| at lags 0 .. N - 1 [samples] (R is even in the lag): the envelope of one
-        echo's matched-filter output over its peak, zero over its main lobe (up to its first
-        minimum)."""
-        band = self.band
-        envelope = np.abs(band.to_analytic(band.system_spectrum()[band.bins] * self._filter))
-        envelope = envelope / envelope[0]  # zero phase: the peak at lag 0
-        rising = np.diff(envelope) >= 0
-        first_minimum = int(np.argmax(rising)) if rising.any() else len(envelope)
-        envelope[: first_minimum + 1] = 0.0
-        return envelope.astype(np.float32)
+        return 2 * half / self.band.sample_rate, max(1, int(round(2 * half)))
 
     def _lobe_tables(self, offsets, wavenumber: float):
         """(F, D) |AF| from every grid direction into each field-of-view direction (0 within
@@ -427,8 +425,6 @@ class ReceiveImager:
         ``row`` puts into its sample k: max over k0 of sub(row, k0) |R(k - k0)| (``sub``: the
         image's field-of-view rows)."""
         out = np.zeros(len(row))
-        if not self._range_lobes.any():
-            return out
         lags = np.arange(sub.shape[1])
         for first in range(0, len(row), CANDIDATE_BATCH):  # bounded (batch, N) products
             rows = slice(first, first + CANDIDATE_BATCH)
