@@ -19,8 +19,9 @@ it was measured from (no odometry drift):
   trust thresholds of :data:`IMAGING_TRUST` (``imaging_trust_<threshold>``).
 * imaging_chirp: the same single-ping images with the transmit element driven by a 4 ms
   30-50 kHz linear sweep instead of the tone burst (``Chirp``, :data:`CHIRP_SCANS`), as RTIS
-  images (``paper`` and ``broadband``); the cycle grows by the sweep's length (33.9 ms with the
-  paper preset, 34.0 ms broadband: 3.5 ms more than their bursts' cycles).
+  images (``paper`` and ``broadband``), traced at two frequency nodes (the automatic count); the
+  cycle grows by the sweep's length (33.9 ms with the paper preset, 34.0 ms broadband: 3.5 ms
+  more than their bursts' cycles).
 * imaging_chirp_wide: a 4 ms sweep over RTIS's 20-80 kHz (``paper``, whose ideal transducers
   pass it), sampled at 250 kHz, the element patterns, patch integrals and absorption traced at
   five frequency nodes 15 kHz apart (``TraceSettings.subbands``, docs/imaging.md).
@@ -166,7 +167,8 @@ class RunSettings:
         image_rays_per_axis: rays per axis of an image's wide transmission (physical model).
         seed: seeds the sonar, the LiDAR's noise, the samples and the thinning.
         subbands: frequency nodes of every configuration's trace (``TraceSettings.subbands``;
-            None: its default, one); ``imaging_chirp_wide`` always takes five.
+            None: its default, as many as each band needs); ``imaging_chirp_wide`` always
+            takes five.
     """
 
     duration: float | None
@@ -518,7 +520,8 @@ def main(argv=None) -> int:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--subbands", type=int, default=None,
                         help="trace every configuration at this many frequency nodes "
-                             "(TraceSettings.subbands; default 1; imaging_chirp_wide: 5)")
+                             "(TraceSettings.subbands; default: as many as each band needs, "
+                             "imaging_chirp_wide: 5)")
     parser.add_argument("--quick", action="store_true",
                         help="office, 0.3 s of driving, 20 deg grid, 16 rays per axis per beam "
                              "and 32 per image, 5 cm ground truth (for the test suite)")

@@ -132,6 +132,12 @@ class ArrayGeometry:
             if value >= np.pi:
                 raise ValueError(f"ArrayGeometry.{name} must be below 180 degrees")
 
+    @property
+    def fov_half_diagonal(self) -> float:
+        """Angle between broadside and the field of view's corners [rad]."""
+        return float(np.arctan(np.hypot(np.tan(self.fov_horizontal / 2),
+                                        np.tan(self.fov_vertical / 2))))
+
     def with_random_phase_errors(self, std: float, seed: int) -> "ArrayGeometry":
         """Copy with seeded Gaussian per-element phase errors of ``std`` [rad] (uncalibrated array)."""
         rng = np.random.default_rng(seed)

@@ -219,14 +219,14 @@ class ImagingSonar:
         self.transmit = transmit
         cfg = sonar.config
         g = cfg.geometry
-        half_diagonal = np.arctan(np.hypot(np.tan(g.fov_horizontal / 2),
-                                           np.tan(g.fov_vertical / 2)))
+        half_diagonal = g.fov_half_diagonal
         if transmit.cone_half_angle <= half_diagonal:
             raise ValueError(f"TransmitSettings.cone_half_angle must exceed the field of view's "
                              f"half-diagonal ({np.degrees(half_diagonal):.1f} deg)")
         weights = transmit.weights(g.tx_positions)
         self.tracer = AcousticTracer(sonar.scene, g, cfg.transducer, cfg.medium, cfg.pulse,
-                                     transmit.trace_settings(cfg.trace, weights))
+                                     cfg.resolved_trace(transmit.trace_settings(cfg.trace, weights),
+                                                        transmit.cone_half_angle))
         self._transmitting = weights != 0  # the elements the traced paths keep
         #: The emission of each ping of a frame (one unless 'sectors').
         self.emissions = transmit.emissions(g, cfg.medium.speed_of_sound)

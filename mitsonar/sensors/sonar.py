@@ -29,7 +29,8 @@ from mitsonar.physics.waveforms import Chirp, Pulse
 from mitsonar.signal.band import BAND_TOP, Band, Recording
 from mitsonar.signal.synthesis import EchoSynthesizer
 from mitsonar.trace.paths import Paths
-from mitsonar.trace.tracer import AcousticTracer, TraceResult, TraceSettings
+from mitsonar.trace.subbands import nodes_needed
+from mitsonar.trace.tracer import AcousticTracer, TraceResult, TraceSettings, frequency_gains
 from mitsonar.physics.transducer import Transducer
 from mitsonar.validation import check_positive
 
@@ -187,6 +188,30 @@ class SonarConfig:
             config = replace(config, pulse=Chirp())
         return config
 
+    def resolved_trace(self, trace: TraceSettings | None = None,
+                       max_angle: float | None = None) -> TraceSettings:
+        """``trace`` (default: this configuration's) with ``subbands="auto"`` resolved for this
+        drive, its transducers, air and listening window (:func:`~mitsonar.trace.subbands.
+        nodes_needed`); ``max_angle``: the widest angle off broadside a traced patch lies at
+        [rad] (default: the field of view's half-diagonal plus the traced cone)."""
+        trace = self.trace if trace is None else trace
+        if trace.subbands != "auto":
+            return trace
+        if max_angle is None:
+            cone = trace.cone_half_angle if trace.model == "physical" else np.arctan(
+                np.tan(trace.paper_spacing) * (trace.paper_grid - 1) / 2)
+            max_angle = min(self.geometry.fov_half_diagonal + cone, np.radians(80))
+        half = 0.5 * max(self.transducer.bandwidth_6db, self.pulse.bandwidth)  # as the tracer
+        f = np.linspace(max(self.pulse.frequency - 4 * half, 1.0),
+                        self.pulse.frequency + 4 * half, 1601)
+        weight = np.abs(self.pulse.spectrum(f))
+        if self.transducer_response:
+            weight = weight * np.abs(self.transducer.frequency_response(f)) ** 2
+        gain = frequency_gains(self.transducer, self.medium, trace, max_angle,
+                               self.medium.speed_of_sound * self.record_duration)
+        return replace(trace, subbands=nodes_needed(gain, self.pulse.frequency, half, f, weight,
+                                                    trace.subband_tolerance))
+
     def with_detection(self, **changes) -> "SonarConfig":
         """This configuration with ``changes`` to its :class:`DetectionSettings` (checked as
         there), e.g. ``config.with_detection(echoes="cells")``."""
@@ -289,7 +314,7 @@ class Sonar:
         self.scene = scene if isinstance(scene, AcousticScene) else load_scene(scene)
         cfg = self.config
         self.tracer = AcousticTracer(self.scene, cfg.geometry, cfg.transducer, cfg.medium,
-                                     cfg.pulse, cfg.trace)
+                                     cfg.pulse, cfg.resolved_trace())
         self.band = Band(cfg.pulse, cfg.transducer, cfg.sample_rate, -PRE_ROLL,
                          cfg.record_duration, cfg.transducer_response, floor=cfg.band_floor,
                          baseband=cfg.baseband)

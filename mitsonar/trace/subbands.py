@@ -8,6 +8,12 @@ the K path sets, which share their delays, as :class:`Subbands`. The synthesizer
 with the drive's spectrum times the k-th hat weight of the nodes
 (:class:`~mitsonar.signal.band.SubBand`): every path's gain is interpolated linearly in frequency
 between the nodes and held at the end nodes' values beyond them.
+
+How many nodes (``TraceSettings.subbands = "auto"``, :func:`nodes_needed`): the fewest whose
+interpolated gains keep every echo's spectrum within ``TraceSettings.subband_tolerance`` of the
+exact one, as the RMS over the band weighted by the system spectrum (drive and transducer
+responses), relative to an echo from broadside: a tone burst's narrow spectrum needs one node
+behind any transducer, a 30-50 kHz sweep two or three, RTIS's 20-80 kHz four (docs/physics.md).
 """
 
 from __future__ import annotations
@@ -33,6 +39,32 @@ def hat_weights(nodes, frequencies) -> np.ndarray:
     eye = np.eye(len(nodes))
     return np.stack([np.interp(f, nodes, row) for row in eye]) if len(nodes) > 1 \
         else np.ones((1, len(f)))
+
+
+def nodes_needed(gain, centre: float, half_width: float, frequencies, weight,
+                 tolerance: float, most: int = 16) -> int:
+    """Fewest frequency nodes (:func:`subband_nodes` over ``centre`` +- ``half_width`` [Hz])
+    whose linear interpolation (:func:`hat_weights`) of ``gain`` keeps every echo spectrum
+    within ``tolerance`` of the exact one; ``most`` if none fewer does.
+
+    Args:
+        gain: function of frequencies (F,) [Hz] giving the paths' gains (A, F) at them, for A
+            cases (angles, path lengths); case 0 is the reference the errors are relative to.
+        frequencies: (F,) [Hz] where the echoes have energy.
+        weight: (F,) the system spectrum's magnitude there.
+        tolerance: largest RMS error over ``frequencies``, weighted by ``weight``, relative to
+            the reference case's weighted RMS gain.
+    """
+    f = np.asarray(frequencies, dtype=float)
+    w = np.asarray(weight, dtype=float) ** 2
+    exact = gain(f)
+    scale = np.sum(w * np.abs(exact[0]) ** 2)
+    for count in range(1, most + 1):
+        nodes = subband_nodes(centre, half_width, count)
+        error = np.sum(w * np.abs(gain(nodes) @ hat_weights(nodes, f) - exact) ** 2, axis=-1)
+        if np.sqrt(error.max() / scale) <= tolerance:
+            return count
+    return most
 
 
 @dataclass(frozen=True)

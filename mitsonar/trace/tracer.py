@@ -107,11 +107,16 @@ class TraceSettings:
         subbands: frequency nodes at which element patterns, patch integrals and air
             absorption are evaluated, spread evenly over the band (the wider of the drive's and
             the transducers' bandwidths), the paths' gains interpolated linearly between them
-            (:mod:`~mitsonar.trace.subbands`); 1 (the default): once, at the drive's centre,
-            which holds over narrow bands (the TCT40's 2 kHz; across 30-50 kHz a rigid wall's
-            echo spectrum is then +2.2/-2.6 dB off the image source at the band's edges, two
-            nodes bring it within 0.4 dB; a 20-80 kHz sweep needs 5, docs/physics.md). Costs
-            about that many times the synthesis.
+            (:mod:`~mitsonar.trace.subbands`); 1: once, at the drive's centre, which holds over
+            narrow bands (the TCT40's 2 kHz; across 30-50 kHz a rigid wall's echo spectrum is
+            then +2.2/-2.6 dB off the image source at the band's edges, two nodes bring it
+            within 0.4 dB, docs/physics.md). "auto" (the default): the fewest that keep every
+            echo spectrum within ``subband_tolerance`` (:func:`frequency_gains`, resolved by
+            :meth:`SonarConfig.resolved_trace <mitsonar.sensors.sonar.SonarConfig.resolved_trace>`):
+            1 for tone bursts, 2-3 for a 30-50 kHz sweep. Costs about that many times the
+            synthesis.
+        subband_tolerance: the automatic choice's largest RMS error of an echo's spectrum,
+            relative to an echo from broadside (0.05: -26 dB).
     """
 
     model: str = "physical"
@@ -135,7 +140,8 @@ class TraceSettings:
     shared_ray_step: float = np.radians(2.0)
     max_merge: int = 1
     max_patch_phase: float = np.pi / 8
-    subbands: int = 1
+    subbands: int | str = "auto"
+    subband_tolerance: float = 0.05
 
     def __post_init__(self):
         if self.model not in ("physical", "paper"):
@@ -163,9 +169,11 @@ class TraceSettings:
             raise ValueError(f"TraceSettings.max_merge must be 1, 2, 4, 8 or 16, "
                              f"got {self.max_merge}")
         check_range("TraceSettings.max_patch_phase [rad]", self.max_patch_phase, 1e-3, np.pi)
-        if int(self.subbands) != self.subbands or not 1 <= self.subbands <= 16:
-            raise ValueError(f"TraceSettings.subbands must be an integer in 1..16, "
-                             f"got {self.subbands}")
+        if self.subbands != "auto" and (isinstance(self.subbands, str) or int(
+                self.subbands) != self.subbands or not 1 <= self.subbands <= 16):
+            raise ValueError(f"TraceSettings.subbands must be 'auto' or an integer in 1..16, "
+                             f"got {self.subbands!r}")
+        check_range("TraceSettings.subband_tolerance", self.subband_tolerance, 1e-4, 1.0)
         if self.transmit_weights is not None:
             weights = tuple(float(w) for w in np.ravel(self.transmit_weights))
             check_finite("TraceSettings.transmit_weights", np.array(weights))
@@ -220,6 +228,27 @@ class HitPatches:
     ray_count: int
 
 
+def frequency_gains(transducer: Transducer, medium: Medium, settings: TraceSettings,
+                    max_angle: float, longest_path: float):
+    """What the tracer evaluates per frequency node, as a function of frequencies (F,) [Hz]
+    giving gains (A, F): the two-way element pattern at 0 .. ``max_angle`` [rad] off the
+    element normal, air absorption over 0 .. ``longest_path`` [m] (if modelled) and the
+    physical model's j k of the patch integral (case 0: broadside, no path; for
+    :func:`~mitsonar.trace.subbands.nodes_needed`)."""
+    angle = np.linspace(0.0, max_angle, 33)[:, None, None]
+    path = np.linspace(0.0, longest_path, 3)[None, :, None]
+
+    def gain(frequencies):
+        k = medium.wavenumber(np.asarray(frequencies, dtype=float))
+        out = transducer.directivity(np.cos(angle), k) ** 2 * np.ones_like(path)
+        if settings.air_absorption:
+            out = out * 10.0 ** (-medium.absorption_db_per_m(frequencies) * path / 20.0)
+        if settings.model == "physical":
+            out = out * k
+        return out.reshape(-1, out.shape[-1])
+    return gain
+
+
 class AcousticTracer(RayCaster):
     """Traces beams through one loaded scene; build once, call :meth:`trace` per beam.
 
@@ -245,6 +274,9 @@ class AcousticTracer(RayCaster):
         self.c = medium.speed_of_sound
         z_air = medium.impedance
         self._z_air = z_air
+        if settings.subbands == "auto":
+            raise ValueError("TraceSettings.subbands 'auto' is resolved by "
+                             "SonarConfig.resolved_trace before tracing")
         #: Frequency nodes of the element patterns, patch integrals and absorption [Hz]
         #: (``TraceSettings.subbands``).
         self.nodes = tuple(float(f) for f in

@@ -136,7 +136,7 @@ def test_transmit_weights_fire_exactly_the_weighted_elements(tmp_path):
                        sphere_xml("w", (-0.2, 0.1, 1.2), 0.1))
     config = mitsonar.SonarConfig()
     sonar = mitsonar.Sonar(path, config)
-    g, trace = config.geometry, config.trace
+    g, trace = config.geometry, config.resolved_trace()
     direction = direction_from_fov_angles(np.radians(8.0), np.radians(-5.0))
 
     def tracer(geometry, **changes):

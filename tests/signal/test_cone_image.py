@@ -72,30 +72,28 @@ def test_separated_reflectors_inside_one_cone():
 
 def test_points_across_a_plane_tilted_45_deg(scene_file):
     """A concrete plane at 45 deg through the broadside beam 1.5 m away, broadband transducers
-    driven by 4 cycles (2.7 cm of depth resolution): "image" places its points within 1 cm of the
-    plane, and they span more of the transmit beam's -6 dB footprint along the tilt than the
-    points of "cells" within 1 cm do, on average over seeds 0-3. Measured over seeds 0-5: 4-6
-    points, at most 9.6 mm off the plane, spanning 63-79 % of the footprint (mean 70 %; "cells"
-    31-79 %, mean 65 %). Fails if the image's peak need not be a peak (a rim direction whose
-    neighbour outside the cone is stronger), or without the side-lobe check and the trust."""
+    driven by 4 cycles (2.7 cm of depth resolution; traced at the two frequency nodes its
+    10 kHz spectrum needs): "image" places its points within 1 cm of the plane, spanning at
+    least 60 % of the transmit beam's -3 dB footprint along the tilt (issue 28) for each of
+    seeds 0-3. Measured over seeds 0-7: at most 10.0 mm off the plane, spanning 83-94 % of the
+    footprint ("cells" 82-93 %; traced at one node, before the automatic count, "image" spanned
+    more than "cells" on average, 70 against 65 % of the -6 dB footprint). Fails if the image's
+    peak need not be a peak (a rim direction whose neighbour outside the cone is stronger), or
+    without the side-lobe check and the trust."""
     scene = tilted_plane(scene_file)
     config = mitsonar.SonarConfig(transducer=mitsonar.Transducer(bandwidth_6db=20e3),
                                   pulse=mitsonar.Pulse(cycles=4))
-    ends = tilted_footprint(config, 0.5)
-    spans = {}
-    for mode in ("cells", "image"):
-        sonar = mitsonar.Sonar(scene, _with(config, mode))
-        span = []
-        for seed in range(4):
-            table = sonar.scan(IDENTITY, [[0.0, 0.0, 1.0]], seed=seed).echo_table
-            off_plane = np.abs((table.point - [0.0, 0.0, TILT_DISTANCE]) @ TILT_NORMAL)
-            along = table.point[:, 0] / np.cos(TILT)  # along the tilt, on the plane [m]
-            if mode == "image":
-                assert len(table) >= 2 and np.all(off_plane <= 0.01), (along, off_plane)
-            near = np.clip(along[off_plane <= 0.01], *ends)
-            span.append(near.max() - near.min() if len(near) else 0.0)
-        spans[mode] = np.array(span) / (ends[1] - ends[0])
-    assert spans["image"].mean() > spans["cells"].mean(), spans
+    ends = tilted_footprint(config)
+    sonar = mitsonar.Sonar(scene, _with(config, "image"))
+    spans = []
+    for seed in range(4):
+        table = sonar.scan(IDENTITY, [[0.0, 0.0, 1.0]], seed=seed).echo_table
+        off_plane = np.abs((table.point - [0.0, 0.0, TILT_DISTANCE]) @ TILT_NORMAL)
+        along = table.point[:, 0] / np.cos(TILT)  # along the tilt, on the plane [m]
+        assert len(table) >= 2 and np.all(off_plane <= 0.01), (along, off_plane)
+        near = np.clip(along, *ends)
+        spans.append((near.max() - near.min()) / (ends[1] - ends[0]))
+    assert min(spans) >= 0.6, spans
 
 
 def test_noise_alone_gives_the_design_false_alarm_rate():
