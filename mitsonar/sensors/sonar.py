@@ -30,7 +30,8 @@ from mitsonar.signal.band import BAND_TOP, Band, Recording
 from mitsonar.signal.synthesis import EchoSynthesizer
 from mitsonar.trace.paths import Paths
 from mitsonar.trace.subbands import nodes_needed
-from mitsonar.trace.tracer import AcousticTracer, TraceResult, TraceSettings, frequency_gains
+from mitsonar.trace.tracer import (AcousticTracer, TraceResult, TraceSettings,
+                                   band_half_width, frequency_gains)
 from mitsonar.physics.transducer import Transducer
 from mitsonar.validation import check_positive
 
@@ -201,7 +202,7 @@ class SonarConfig:
             cone = trace.cone_half_angle if trace.model == "physical" else np.arctan(
                 np.tan(trace.paper_spacing) * (trace.paper_grid - 1) / 2)
             max_angle = min(self.geometry.fov_half_diagonal + cone, np.radians(80))
-        half = 0.5 * max(self.transducer.bandwidth_6db, self.pulse.bandwidth)  # as the tracer
+        half = band_half_width(self.transducer, self.pulse)
         f = np.linspace(max(self.pulse.frequency - 4 * half, 1.0),
                         self.pulse.frequency + 4 * half, 1601)
         weight = np.abs(self.pulse.spectrum(f))

@@ -13,7 +13,8 @@ How many nodes (``TraceSettings.subbands = "auto"``, :func:`nodes_needed`): the 
 interpolated gains keep every echo's spectrum within ``TraceSettings.subband_tolerance`` of the
 exact one, as the RMS over the band weighted by the system spectrum (drive and transducer
 responses), relative to an echo from broadside: a tone burst's narrow spectrum needs one node
-behind any transducer, a 30-50 kHz sweep two or three, RTIS's 20-80 kHz four (docs/physics.md).
+behind any transducer, a 30-50 kHz sweep two, RTIS's 20-80 kHz three to four
+(docs/physics.md).
 """
 
 from __future__ import annotations

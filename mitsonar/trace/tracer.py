@@ -113,8 +113,8 @@ class TraceSettings:
             within 0.4 dB, docs/physics.md). "auto" (the default): the fewest that keep every
             echo spectrum within ``subband_tolerance`` (:func:`frequency_gains`, resolved by
             :meth:`SonarConfig.resolved_trace <mitsonar.sensors.sonar.SonarConfig.resolved_trace>`):
-            1 for tone bursts, 2-3 for a 30-50 kHz sweep. Costs about that many times the
-            synthesis.
+            1 for tone bursts, 2 for a 30-50 kHz sweep, 3-4 for 20-80 kHz. Costs about that
+            many times the synthesis.
         subband_tolerance: the automatic choice's largest RMS error of an echo's spectrum,
             relative to an echo from broadside (0.05: -26 dB).
     """
@@ -228,6 +228,12 @@ class HitPatches:
     ray_count: int
 
 
+def band_half_width(transducer: Transducer, pulse: Pulse | Chirp) -> float:
+    """Half the band the trace models around the drive's centre [Hz]: half the wider of the
+    transducers' and the drive's bandwidths (its frequency nodes span it)."""
+    return 0.5 * max(transducer.bandwidth_6db, pulse.bandwidth)
+
+
 def frequency_gains(transducer: Transducer, medium: Medium, settings: TraceSettings,
                     max_angle: float, longest_path: float):
     """What the tracer evaluates per frequency node, as a function of frequencies (F,) [Hz]
@@ -263,10 +269,8 @@ class AcousticTracer(RayCaster):
 
     def __init__(self, scene: AcousticScene, geometry: ArrayGeometry, transducer: Transducer,
                  medium: Medium, pulse: Pulse | Chirp, settings: TraceSettings = TraceSettings()):
-        # The band's top: half the wider of the transducer's and the drive's bandwidths above
-        # the carrier.
-        half = 0.5 * max(transducer.bandwidth_6db, pulse.bandwidth)
-        top = pulse.frequency + half
+        half = band_half_width(transducer, pulse)
+        top = pulse.frequency + half  # the band's top
         self.k = float(medium.wavenumber(pulse.frequency))
         super().__init__(scene, geometry, settings, (self.k, float(medium.wavenumber(top))))
         self.transducer = transducer
