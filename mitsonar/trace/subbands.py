@@ -19,6 +19,7 @@ behind any transducer, a 30-50 kHz sweep two, RTIS's 20-80 kHz three to four
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -46,7 +47,8 @@ def nodes_needed(gain, centre: float, half_width: float, frequencies, weight,
                  tolerance: float, most: int = 16) -> int:
     """Fewest frequency nodes (:func:`subband_nodes` over ``centre`` +- ``half_width`` [Hz])
     whose linear interpolation (:func:`hat_weights`) of ``gain`` keeps every echo spectrum
-    within ``tolerance`` of the exact one; ``most`` if none fewer does.
+    within ``tolerance`` of the exact one; ``most``, with a warning naming the error it leaves,
+    if none does.
 
     Args:
         gain: function of frequencies (F,) [Hz] giving the paths' gains (A, F) at them, for A
@@ -65,6 +67,9 @@ def nodes_needed(gain, centre: float, half_width: float, frequencies, weight,
         error = np.sum(w * np.abs(gain(nodes) @ hat_weights(nodes, f) - exact) ** 2, axis=-1)
         if np.sqrt(error.max() / scale) <= tolerance:
             return count
+    warnings.warn(f"TraceSettings.subbands: {most} frequency nodes leave an echo spectrum "
+                  f"{np.sqrt(error.max() / scale):.3g} off (subband_tolerance {tolerance:g})",
+                  stacklevel=2)
     return most
 
 

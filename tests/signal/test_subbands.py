@@ -157,6 +157,8 @@ def test_nodes_needed_interpolates_within_the_tolerance():
     curved = [needed(lambda x: (x / 50e3) ** 3, t) for t in (0.1, 0.03, 0.01)]
     assert curved == sorted(curved) and curved[-1] > curved[0] >= 2, curved
     assert needed(lambda x: np.where(x > 70e3, 5.0, 1.0), w=np.where(f > 70e3, 0.0, 1.0)) == 1
+    with pytest.warns(UserWarning, match="frequency nodes leave"):  # a step no count follows
+        assert needed(lambda x: np.where(x > 52e3, 5.0, 1.0), 1e-3) == 16
 
 
 def test_automatic_nodes_follow_the_drive():
