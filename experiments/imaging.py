@@ -530,8 +530,11 @@ def main(argv=None) -> int:
                               for option, known in choices.items())
     if args.stride < 1:
         raise ValueError(f"--stride must be >= 1, got {args.stride}")
-    if args.subbands is not None and not 1 <= args.subbands <= 16:
-        parser.error(f"--subbands must be in 1..16, got {args.subbands}")
+    if args.subbands is not None:
+        try:
+            mitsonar.TraceSettings(subbands=args.subbands)  # its own check
+        except ValueError as error:
+            parser.error(f"--subbands: {error}")
     settings = RunSettings(args.duration, args.stride, np.radians(args.step), args.spacing, None,
                            TransmitSettings.rays_per_axis, args.seed, args.subbands)
     if args.quick:

@@ -199,9 +199,8 @@ class SonarConfig:
         if trace.subbands != "auto":
             return trace
         if max_angle is None:
-            cone = trace.cone_half_angle if trace.model == "physical" else np.arctan(
-                np.tan(trace.paper_spacing) * (trace.paper_grid - 1) / 2)
-            max_angle = min(self.geometry.fov_half_diagonal + cone, np.radians(80))
+            max_angle = min(self.geometry.fov_half_diagonal + trace.traced_half_angle,
+                            np.radians(80))
         half = band_half_width(self.transducer, self.pulse)
         f = np.linspace(max(self.pulse.frequency - 4 * half, 1.0),
                         self.pulse.frequency + 4 * half, 1601)

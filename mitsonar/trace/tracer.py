@@ -143,6 +143,14 @@ class TraceSettings:
     subbands: int | str = "auto"
     subband_tolerance: float = 0.05
 
+    @property
+    def traced_half_angle(self) -> float:
+        """Half-angle about the beam axis of what is traced [rad]: the cone (physical model) or
+        the extent of the reflector grid (paper model)."""
+        if self.model == "physical":
+            return self.cone_half_angle
+        return float(np.arctan(np.tan(self.paper_spacing) * (self.paper_grid - 1) / 2))
+
     def __post_init__(self):
         if self.model not in ("physical", "paper"):
             raise ValueError(f"TraceSettings.model must be 'physical' or 'paper', got {self.model!r}")
