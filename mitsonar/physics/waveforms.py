@@ -153,10 +153,15 @@ def spectrum_of(signal, frequency) -> np.ndarray:
     t = np.arange(0.0, signal.duration + dt / 2, dt)
     x = signal.waveform(t)
     flat = f.ravel()
-    step = flat[1] - flat[0] if flat.size > 1 else 0.0
-    if flat.size > 64 and step > 0 and np.allclose(np.diff(flat), step, rtol=1e-9, atol=0.0):
+    order = np.argsort(flat, kind="stable")  # FFT bins about a centre come in wrapped order
+    ascending = flat[order]
+    step = ascending[1] - ascending[0] if flat.size > 1 else 0.0
+    if flat.size > 64 and step > 0 and np.allclose(np.diff(ascending), step, rtol=1e-9,
+                                                   atol=0.0):
         # A uniform frequency grid (e.g. FFT bins): the same sums by the chirp z-transform.
-        out = czt(x, flat.size, np.exp(-2j * np.pi * step * dt), np.exp(2j * np.pi * flat[0] * dt))
+        out = np.empty(flat.size, dtype=complex)
+        out[order] = czt(x, flat.size, np.exp(-2j * np.pi * step * dt),
+                         np.exp(2j * np.pi * ascending[0] * dt))
         return out.reshape(f.shape) * dt
     return (np.exp(-2j * np.pi * f[..., None] * t) @ x) * dt
 

@@ -281,9 +281,9 @@ class Band:
 
 def code_response(band: Band, waveform, frequencies) -> np.ndarray:
     """``band.system_response(waveform, frequencies)`` (:meth:`Band.system_response`), kept per
-    (waveform, frequencies, reference rate, transducer) for the whole process: the direct sum
-    over a code's samples costs ~0.3 s per code and every cycle of a frame fires codes again,
-    and a new Sonar (a new synthesizer) on the same settings asks for the same ones."""
+    (waveform, frequencies, reference rate, transducer) for the whole process: every cycle of a
+    frame fires codes again, and a new Sonar (a new synthesizer) on the same settings asks for
+    the same ones."""
     frequencies = np.asarray(frequencies, dtype=float)
     key = (waveform, frequencies.tobytes(), band.reference_rate, band.transducer,
            band.transducer_response)

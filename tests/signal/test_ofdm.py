@@ -4,7 +4,8 @@ import numpy as np
 import pytest
 
 import mitsonar
-from mitsonar.signal.ofdm import PAPER_TONES, Schedule, check_orthogonal, code_correlation, code_set
+from mitsonar.signal.ofdm import (PAPER_TONES, Code, Schedule, check_orthogonal, code_correlation,
+                                  code_set)
 
 
 def test_paper_tones_are_orthogonal_and_give_25_codes():
@@ -26,6 +27,22 @@ def test_code_correlations_follow_the_shared_halves():
     corr = code_correlation(codes)
     shared = np.array([[(a.first == b.first) + (a.second == b.second) for b in codes] for a in codes])
     np.testing.assert_allclose(corr, shared / 2.0, atol=2e-3)  # 1, 1/2 or 0 (orthogonal halves)
+
+
+def test_code_spectrum_on_wrapped_fft_bins_equals_direct_summation():
+    """A frame's drives ask for a code's spectrum on FFT bins about the band's centre, in FFT
+    order (above the centre, then below it): the chirp z-transform taken on the sorted grid
+    gives the direct summation at every bin, within 1e-8 of the peak (measured 6e-10)."""
+    from mitsonar.physics.waveforms import _SPECTRUM_RATE
+    code = Code(32e3, 44e3)
+    nu = np.fft.fftfreq(6000)
+    f = 40e3 + nu * 50e3
+    f = f[(f > 30e3) & (f < 50e3)]
+    assert np.any(np.diff(f) < 0)  # wrapped: not ascending
+    dt = 1.0 / _SPECTRUM_RATE
+    t = np.arange(0.0, code.duration + dt / 2, dt)
+    direct = (np.exp(-2j * np.pi * f[:, None] * t) @ code.waveform(t)) * dt
+    assert np.max(np.abs(code.spectrum(f) - direct)) < 1e-8 * np.max(np.abs(direct))
 
 
 def test_paper_frame_is_208_5_ms_with_117_points():
