@@ -65,16 +65,24 @@ def test_write_read_round_trip_is_exact(reference):
 
 
 def test_killed_render_resumes_to_the_same_dataset(reference, tmp_path):
+    """A render killed (SIGKILL) while it writes its second sample resumes to the same dataset
+    as an uninterrupted one, and leaves no partial sample behind."""
     out = tmp_path / "resumed"
-    code = ("import numpy as np, sys; sys.path.insert(0, %r); from test_dataset import SPEC; "
+    here = Path(__file__).parent
+    code = ("import sys; sys.path[:0] = [%r, %r]; from test_dataset import SPEC; "
             "from mitsonar.data.dataset import render_dataset; render_dataset(SPEC, %r)"
-            % (str(Path(__file__).parent), str(out)))
-    proc = subprocess.Popen([sys.executable, "-c", code])
+            % (str(here), str(here.parent), str(out)))
+    proc = subprocess.Popen([sys.executable, "-c", code], stderr=subprocess.PIPE, text=True)
     deadline = time.time() + 120
-    while time.time() < deadline and not (out / "samples" / "000000" / "manifest.json").exists():
-        time.sleep(0.05)
+    while not (out / "samples" / "000000" / "manifest.json").exists():
+        if proc.poll() is not None:  # it must still be rendering when its first sample is done
+            pytest.fail(f"the render ended (exit {proc.returncode}) before its first sample: "
+                        f"{proc.stderr.read()[-2000:]}")
+        assert time.time() < deadline, "no first sample in 120 s"
+        time.sleep(0.01)
     os.kill(proc.pid, signal.SIGKILL)  # in the middle of the second sample
     proc.wait()
+    proc.stderr.close()
     assert not (out / "samples" / "000001").exists()
     render_dataset(SPEC, out)
     assert _same_tree(reference, out)
