@@ -19,6 +19,17 @@ def check_positive(name: str, value) -> None:
         raise ValueError(f"{name} must be > 0, got {value!r}")
 
 
+#: Narrowest camera image the pipelines take [pixels] (the camera's 4:3 frame: 8 x 6).
+MIN_IMAGE_WIDTH = 8
+
+
+def check_image_width(name: str, value) -> None:
+    """Raise ValueError unless ``value`` is an integer camera image width of at least
+    :data:`MIN_IMAGE_WIDTH` [pixels]."""
+    if isinstance(value, bool) or int(value) != value or value < MIN_IMAGE_WIDTH:
+        raise ValueError(f"{name} [pixels] must be an integer >= {MIN_IMAGE_WIDTH}, got {value!r}")
+
+
 def check_range(name: str, value, lo: float, hi: float) -> None:
     """Raise ValueError unless lo <= value <= hi (and finite)."""
     check_finite(name, value)

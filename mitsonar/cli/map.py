@@ -149,8 +149,8 @@ def _run_surfel(args) -> int:
     from mitsonar.scene.mesh import scene_mesh
     from mitsonar.sensors.sonar import SonarConfig
 
-    trajectory, driven = _drive(args)
     settings = SurfelSettings(image_width=args.width, spp=args.spp, seed=args.seed)
+    trajectory, driven = _drive(args)
     sonar = Sonar(args.scene, SonarConfig.preset(args.preset))
     # the poses a recording stamps the pings with: the still poses, or every camera frame
     times = np.linspace(0.0, driven, args.frames) if args.frames is not None else \

@@ -46,7 +46,7 @@ from mitsonar.io import atomic_path
 from mitsonar.sensors.sonar import Sonar, SonarConfig
 from mitsonar.signal.detection import ECHO_MODES
 from mitsonar.sensors.trajectory import OdometryDrift, Trajectory, sensor_poses
-from mitsonar.validation import check_positive
+from mitsonar.validation import check_image_width, check_positive
 
 FORMAT_VERSION = 1
 #: What a sample's sonar records (``DatasetSpec.scan``).
@@ -105,8 +105,7 @@ class DatasetSpec:
     def __post_init__(self):
         check_positive("DatasetSpec.period [s]", self.period)
         check_positive("DatasetSpec.scan_step [rad]", self.scan_step)
-        if int(self.image_width) != self.image_width or self.image_width < 8:
-            raise ValueError(f"DatasetSpec.image_width must be an integer >= 8, got {self.image_width}")
+        check_image_width("DatasetSpec.image_width", self.image_width)
         if self.max_samples is not None and self.max_samples < 1:
             raise ValueError(f"DatasetSpec.max_samples must be >= 1, got {self.max_samples}")
         if self.echoes not in ECHO_MODES:

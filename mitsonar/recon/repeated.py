@@ -45,7 +45,7 @@ from mitsonar.sensors.ofdm_sonar import Frame, OfdmSonar, pose_along
 from mitsonar.sensors.sonar import Sonar, beam_seed
 from mitsonar.sensors.trajectory import Trajectory
 from mitsonar.signal.detection import ECHO_MODES, OFF_BEAM_MODES, DetectionSettings
-from mitsonar.validation import check_positive
+from mitsonar.validation import check_image_width, check_positive
 from mitsonar.recon.voxelmap import VoxelMap, VoxelMapSettings, colourise
 
 
@@ -111,6 +111,7 @@ class RepeatedMapSpec:
         if self.duration is not None:
             check_positive("RepeatedMapSpec.duration [s]", self.duration)
         check_positive("RepeatedMapSpec.scan_step [rad]", self.scan_step)
+        check_image_width("RepeatedMapSpec.image_width", self.image_width)
         if self.interval is not None:
             check_positive("RepeatedMapSpec.interval [s]", self.interval)
         if self.scan not in SCANS:

@@ -174,3 +174,15 @@ def test_repeated_options_that_do_not_go_together(tmp_path, capsys, options, nam
     assert code == 2
     assert_one_line_error(err, *names)
     assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize("command", [["map", "surfel", "structure"],
+                                     ["dataset", "render", "office", "--samples", "1"]],
+                         ids=" ".join)
+def test_a_camera_image_too_narrow_is_refused(tmp_path, capsys, command):
+    """--width 3 (a 3 x 2 image, on which line detection fails inside OpenCV): one line naming
+    the setting and its minimum, exit 2, nothing written."""
+    code, err = run([*command, "--width", "3", "--out", tmp_path / "o"], capsys)
+    assert code == 2
+    assert_one_line_error(err, "image_width", ">= 8", "3")
+    assert not (tmp_path / "o").exists()

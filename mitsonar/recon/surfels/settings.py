@@ -8,7 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from mitsonar.recon.lines import SLOPE_SIGMA
-from mitsonar.validation import check_positive, check_range
+from mitsonar.validation import check_image_width, check_positive, check_range
 
 @dataclass(frozen=True)
 class SurfelSettings:
@@ -132,8 +132,8 @@ class SurfelSettings:
         for name in ("fill_spacing", "fill_margin", "range_sigma", "angle_sigma", "crease_sigma",
                      "crease_gate"):
             check_positive(f"SurfelSettings.{name}", getattr(self, name))
-        for name in ("image_width", "spp", "barrier_width", "stride", "max_iterations",
-                     "min_refutations"):
+        check_image_width("SurfelSettings.image_width", self.image_width)
+        for name in ("spp", "barrier_width", "stride", "max_iterations", "min_refutations"):
             value = getattr(self, name)
             if int(value) != value or value < 1:
                 raise ValueError(f"SurfelSettings.{name} must be a positive integer, got {value}")
