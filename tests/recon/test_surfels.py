@@ -246,6 +246,40 @@ def test_check_echoes_off_every_claiming_plane_refute_a_group():
     assert refuted(True, two, SurfelSettings(min_refutations=2)) == [True]
 
 
+def test_check_echoes_scattered_beyond_their_errors_refute_a_plane():
+    """Every check echo within ``merge_sigmas`` (3) expected errors of the group's plane (none
+    against it), alternately 2 errors in front and behind it, as about a plane tilted through a
+    crease: chi^2 per echo 4 over 80 echoes (p ~ 1e-27) refutes it at ``fit_significance``;
+    echoes 0.5 errors off (chi^2 per echo 0.25, as on the true planes of the generated rooms)
+    do not, nor does the scattered set with the test off (``fit_significance`` 0)."""
+    from dataclasses import replace
+
+    from mitsonar.recon.surfels.map import refuted_groups
+    from mitsonar.recon.surfels.planes import _plane_offsets
+
+    plane, surfel = _wall_ahead()
+    scan = _scan_stub([])
+    mesh = grow_planes(scan, np.zeros((0, 4)), plane, surfel)
+    pixels = np.stack(np.meshgrid(np.arange(10.0, 200.0, 20.0), np.arange(5.0, 150.0, 20.0)),
+                      axis=-1).reshape(-1, 2)
+    on_wall = _along_pixels(scan.camera, pixels, 2.0)
+    # one expected error along the normal (the sensor is at the origin): 0.5-0.6 cm here
+    sigma = 1.0 / np.abs(_plane_offsets(on_wall + [0.0, 0.0, 1.0], np.zeros(3), plane,
+                                        SurfelSettings())[:, 0])
+    sign = np.where(np.arange(len(pixels)) % 2, 1.0, -1.0)
+
+    def refuted(errors, settings=SurfelSettings()):
+        points = _along_pixels(scan.camera, pixels, 2.0 + sign * errors * sigma)
+        offsets = _plane_offsets(points, np.zeros(3), plane, settings)[:, 0]
+        assert np.allclose(np.abs(offsets), errors, rtol=0.05)
+        checked = replace(scan, checks=CheckPings(pixels, points))
+        return refuted_groups([checked], [mesh], plane, settings).tolist()
+
+    assert refuted(2.0) == [True]
+    assert refuted(0.5) == [False]
+    assert refuted(2.0, SurfelSettings(fit_significance=0.0)) == [False]
+
+
 def test_barriers_bridge_a_broken_line_and_reach_the_border():
     """A horizontal crease found in three pieces (gaps of 30 and 40 px), its ends 10 px short of
     the crop's sides, leaves the crop one region; the barriers bridge the gaps and extend the

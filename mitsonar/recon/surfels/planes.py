@@ -320,11 +320,17 @@ def project_onto_plane(points, normal, offset) -> np.ndarray:
     return p - (np.sum(p * n, axis=-1) - offset)[..., None] * n
 
 
+def _plane_offsets(points, viewpoint, groups: PlaneGroups, settings: SurfelSettings) -> np.ndarray:
+    """(c, G) signed distances of points (c, 3) [m] seen from ``viewpoint`` (3,) [m] from each
+    group's plane, in expected errors (:func:`_point_sigma`)."""
+    sigma = _point_sigma(points[:, None], viewpoint, groups.normals[None], settings)
+    return (points @ groups.normals.T - groups.offsets) / sigma
+
+
 def _on_planes(points, viewpoint, groups: PlaneGroups, settings: SurfelSettings) -> np.ndarray:
     """(c, G) True where points (c, 3) [m] seen from ``viewpoint`` (3,) [m] lie on each
-    group's plane within ``merge_sigmas`` expected errors (:func:`_point_sigma`)."""
-    sigma = _point_sigma(points[:, None], viewpoint, groups.normals[None], settings)
-    return np.abs(points @ groups.normals.T - groups.offsets) <= settings.merge_sigmas * sigma
+    group's plane within ``merge_sigmas`` expected errors (:func:`_plane_offsets`)."""
+    return np.abs(_plane_offsets(points, viewpoint, groups, settings)) <= settings.merge_sigmas
 
 
 @dataclass(frozen=True)

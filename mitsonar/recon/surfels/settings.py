@@ -83,6 +83,10 @@ class SurfelSettings:
         min_refutations: a plane group is refuted (its surfels dropped) when at least this many
             check echoes in the regions it claims lie on none of their planes and they outnumber
             the echoes on it (:func:`~mitsonar.recon.surfels.map.refuted_groups`).
+        fit_significance: a plane group is also refuted when the check echoes on its plane
+            scatter about it more than their expected errors allow: the p-value of their chi^2
+            (sum of squared distances in expected errors, a degree of freedom per echo) is
+            below this (:func:`~mitsonar.recon.surfels.map.refuted_groups`); 0: no such test.
         range_sigma, angle_sigma: a point at range r seen at incidence theta is expected off
             its plane by sqrt(range_sigma^2 + (r tan(angle_sigma) sin(theta))^2) [m]: the echo's
             range belongs to a direction up to a fraction of the footprint off the beam axis
@@ -120,6 +124,7 @@ class SurfelSettings:
     check_spacing: float = np.radians(5.0)
     region_surfels: bool = False
     min_refutations: int = 3
+    fit_significance: float = 1e-3
     range_sigma: float = 0.005
     angle_sigma: float = np.radians(1.0)
     crease_sigma: float = 1.0
@@ -143,6 +148,7 @@ class SurfelSettings:
             check_positive("SurfelSettings.slope_sigma [pixels]", self.slope_sigma)
         check_positive("SurfelSettings.verify_threshold [m]", self.verify_threshold)
         check_range("SurfelSettings.min_spread", self.min_spread, 0.0, 1.0)
+        check_range("SurfelSettings.fit_significance", self.fit_significance, 0.0, 1.0)
         check_range("SurfelSettings.merge_angle [rad]", self.merge_angle, 0.0, np.pi / 2)
         check_positive("SurfelSettings.merge_sigmas", self.merge_sigmas)
         check_range("SurfelSettings.max_normal_error [rad]", self.max_normal_error, 0.0, np.pi / 2)
