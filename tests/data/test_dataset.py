@@ -72,17 +72,18 @@ def test_killed_render_resumes_to_the_same_dataset(reference, tmp_path):
     code = ("import sys; sys.path[:0] = [%r, %r]; from test_dataset import SPEC; "
             "from mitsonar.data.dataset import render_dataset; render_dataset(SPEC, %r)"
             % (str(here), str(here.parent), str(out)))
-    proc = subprocess.Popen([sys.executable, "-c", code], stderr=subprocess.PIPE, text=True)
+    log = tmp_path / "render.log"  # a file, not a pipe: a full pipe would stall the render
+    with open(log, "w") as stderr:
+        proc = subprocess.Popen([sys.executable, "-c", code], stderr=stderr)
     deadline = time.time() + 120
     while not (out / "samples" / "000000" / "manifest.json").exists():
         if proc.poll() is not None:  # it must still be rendering when its first sample is done
             pytest.fail(f"the render ended (exit {proc.returncode}) before its first sample: "
-                        f"{proc.stderr.read()[-2000:]}")
+                        f"{log.read_text()[-2000:]}")
         assert time.time() < deadline, "no first sample in 120 s"
         time.sleep(0.01)
     os.kill(proc.pid, signal.SIGKILL)  # in the middle of the second sample
     proc.wait()
-    proc.stderr.close()
     assert not (out / "samples" / "000001").exists()
     render_dataset(SPEC, out)
     assert _same_tree(reference, out)
