@@ -22,7 +22,9 @@ the OFDM tones span 32-48 kHz), a 5 deg beam grid (the paper's 13 x 9 beams per 
 echo of each beam (``RepeatedMapSpec.echoes='all'``, the most complete at the same accuracy in
 experiments/imaging.py) and 5 cm voxels (the paper's voxel map); each beam is registered with its
 own pose. ``--repeated-scan chirp`` fires single-ping receive images driven by a 30-50 kHz sweep
-instead (six per camera image, each point registered with its image's pose; docs/imaging.md).
+instead (six per camera image, each point registered with its image's pose; docs/imaging.md);
+``chirp_wide`` drives them with RTIS's 20-80 kHz sweep behind the ``paper`` preset's ideal
+transducers (:func:`wide_sweep`; the broadband transducers pass 20 kHz, so ``paper`` only).
 
 Scoring (:func:`mitsonar.evaluation.metrics.evaluate`, 2 cm threshold). Every cloud is first
 thinned to one point per 1 cm voxel, the ground truth's resolution (:class:`VoxelThinner`: a
@@ -47,6 +49,8 @@ reconstruction <scene>/<sensor>[_<mode>_<preset>].ply (points with their distanc
     .venv/bin/python experiments/comparison.py --quick --out out/comparison    # ~2 min
     .venv/bin/python experiments/comparison.py --scenes workshop --presets default \
         --baselines lidar --repeated-scan chirp --out out/comparison_chirp   # ~1 h a scene
+    .venv/bin/python experiments/comparison.py --scenes workshop --presets paper \
+        --baselines lidar --repeated-scan chirp_wide --out out/comparison_wide   # ~2 h a scene
 """
 
 from __future__ import annotations
@@ -92,6 +96,19 @@ VIEW_PERIOD = 1.0
 #: The sonar's view (``sonar_in_view_pct``) is taken from poses this far apart along the drive
 #: [s] (about its frame period).
 IN_VIEW_PERIOD = 0.2
+#: What repeated mode can fire (:class:`RunSettings` ``repeated_scan``) and the mode each row
+#: reads.
+REPEATED_SCANS = {"ofdm": "repeated", "chirp": "repeated-chirp",
+                  "chirp_wide": "repeated-chirp-wide"}
+
+
+def wide_sweep(config: mitsonar.SonarConfig) -> mitsonar.SonarConfig:
+    """``config`` driven by a 4 ms sweep over RTIS's 20-80 kHz, sampled at 250 kHz (the band's
+    top needs more than the default 200 kHz) and traced at five frequency nodes 15 kHz apart
+    (docs/imaging.md, "Frequency sweeps"). Its transducers must pass the band: the ``paper``
+    preset's ideal ones."""
+    return replace(config, pulse=mitsonar.Chirp(20e3, 80e3, 4e-3), sample_rate=250e3,
+                   trace=replace(config.trace, subbands=5))
 
 
 @dataclass(frozen=True)
@@ -107,10 +124,11 @@ class RunSettings:
         baselines: keys of :data:`BASELINES` driven beside the sonar.
         checkpoints: completeness is measured this many times along the drive.
         seed: seeds the sonar, the baselines' noise, the samples and the thinning.
-        repeated_scan: what repeated mode fires: "ofdm" (OFDM frames, every echo of each beam)
-            or "chirp" (single-ping receive images driven by a 30-50 kHz frequency sweep,
-            ``RepeatedMapSpec.scan='imaging'``); the rows' mode reads "repeated" or
-            "repeated-chirp".
+        repeated_scan: what repeated mode fires: "ofdm" (OFDM frames, every echo of each beam),
+            "chirp" (single-ping receive images driven by a 30-50 kHz frequency sweep behind
+            broadband transducers, ``RepeatedMapSpec.scan='imaging'``) or "chirp_wide" (the same
+            images driven by :func:`wide_sweep`, ``paper`` preset only); the rows' mode is
+            :data:`REPEATED_SCANS`'s.
     """
 
     duration: float | None
@@ -173,9 +191,12 @@ def sonar_run(scene, mode: str, preset: str, trajectory, settings: RunSettings, 
         diagnosis = (f"{len(final.surfel_pose)} surfels registered ({rejected}), "
                      f"{len(final.groups)} planes")
         return clouds, len(clouds[-1]), len(final.scans), diagnosis
-    chirp = settings.repeated_scan == "chirp"
-    config = replace(config, transducer=mitsonar.Transducer.broadband(),
-                     pulse=mitsonar.Chirp() if chirp else config.pulse)
+    chirp = settings.repeated_scan != "ofdm"
+    if settings.repeated_scan == "chirp_wide":
+        config = wide_sweep(config)
+    else:
+        config = replace(config, transducer=mitsonar.Transducer.broadband(),
+                         pulse=mitsonar.Chirp() if chirp else config.pulse)
     sonar = mitsonar.Sonar(scene, config)
     spec = RepeatedMapSpec(duration=settings.duration, scan_step=settings.step, echoes="all",
                            seed=settings.seed, voxels=VoxelMapSettings(voxel_size=MAP_VOXEL),
@@ -253,8 +274,7 @@ def run_scene(name: str, path: Path, modes, settings: RunSettings) -> tuple[list
                             mitsonar.SonarConfig(), IN_VIEW_PERIOD)  # every preset's view
     recs = []
     for mode in modes:
-        shown = "repeated-chirp" if (mode, settings.repeated_scan) == ("repeated", "chirp") \
-            else mode
+        shown = REPEATED_SCANS[settings.repeated_scan] if mode == "repeated" else mode
         for preset in settings.presets:
             start = time.perf_counter()
             with tqdm(desc=f"{name}: sonar ({shown}, {preset})", file=sys.stderr) as bar:
@@ -322,9 +342,10 @@ def parse_args(argv):
     parser.add_argument("--spp", type=int, default=8,
                         help="surfel camera samples per pixel (default 8, denoised)")
     parser.add_argument("--step", type=float, default=5.0, help="OFDM beam grid step [deg]")
-    parser.add_argument("--repeated-scan", choices=("ofdm", "chirp"), default="ofdm",
+    parser.add_argument("--repeated-scan", choices=tuple(REPEATED_SCANS), default="ofdm",
                         help="repeated mode fires OFDM frames (ofdm, default) or single-ping "
-                             "images driven by a 30-50 kHz sweep (chirp, docs/imaging.md)")
+                             "images driven by a 30-50 kHz sweep (chirp) or by a 20-80 kHz "
+                             "one (chirp_wide, --presets paper only; docs/imaging.md)")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--quick", action="store_true",
                         help="room_glass and workshop, their first 0.3 s, 320 px surfel images, "
@@ -333,6 +354,9 @@ def parse_args(argv):
     presets = tuple(args.presets.split(","))
     if not presets or set(presets) - set(PRESETS):
         parser.error(f"--presets: give some of {', '.join(PRESETS)}, got {args.presets!r}")
+    if args.repeated_scan == "chirp_wide" and presets != ("paper",):
+        parser.error("--repeated-scan chirp_wide needs --presets paper: the default preset's "
+                     "broadband transducers pass 20 kHz, not the sweep's 60 kHz")
     baselines = () if args.baselines == "none" else tuple(args.baselines.split(","))
     if set(baselines) - set(BASELINES):
         parser.error(f"--baselines: give some of {', '.join(BASELINES)} or none, "
