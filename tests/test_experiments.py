@@ -116,17 +116,30 @@ def test_comparison_quick(tmp_path):
 
 
 @pytest.mark.slow
-def test_comparison_repeated_mode_with_chirp_images_quick(tmp_path):
-    """``--repeated-scan chirp``: repeated mode maps from single-ping images driven by the
-    30-50 kHz sweep; its row reads mode 'repeated-chirp', its map is not empty and stays within
-    the sonar's field of view."""
-    run_experiment("comparison", "--quick", "--scenes", "workshop", "--presets", "default",
-                   "--baselines", "none", "--repeated-scan", "chirp", "--out", str(tmp_path))
+@pytest.mark.parametrize("scan,preset,mode", [("chirp", "default", "repeated-chirp"),
+                                              ("chirp_wide", "paper", "repeated-chirp-wide")])
+def test_comparison_repeated_mode_with_chirp_images_quick(tmp_path, scan, preset, mode):
+    """``--repeated-scan chirp`` (30-50 kHz) and ``chirp_wide`` (20-80 kHz): repeated mode maps
+    from single-ping images driven by the sweep; the row reads its mode, its map is not empty
+    and stays within the sonar's field of view."""
+    run_experiment("comparison", "--quick", "--scenes", "workshop", "--presets", preset,
+                   "--baselines", "none", "--repeated-scan", scan, "--out", str(tmp_path))
     (row,) = csv.DictReader((tmp_path / "comparison.csv").open())
-    assert (row["sensor"], row["mode"], row["preset"]) == ("sonar", "repeated-chirp", "default")
+    assert (row["sensor"], row["mode"], row["preset"]) == ("sonar", mode, preset)
     assert int(row["points"]) > 0 and float(row["completeness_voxel_pct"]) > 0
     assert float(row["completeness_pct"]) <= float(row["sonar_in_view_pct"]) + 1.0
-    assert (tmp_path / "workshop" / "sonar_repeated-chirp_default.ply").stat().st_size > 0
+    assert (tmp_path / "workshop" / f"sonar_{mode}_{preset}.ply").stat().st_size > 0
+
+
+def test_comparison_refuses_the_wide_sweep_behind_physical_transducers(tmp_path, capsys):
+    """The 20-80 kHz sweep needs the paper preset's ideal transducers: with the default preset
+    in the run the comparison stops at once with one line naming the options, exit 2."""
+    with pytest.raises(SystemExit) as stop:
+        load_experiment("comparison").main(["--repeated-scan", "chirp_wide", "--out",
+                                            str(tmp_path)])
+    assert stop.value.code == 2
+    assert "--repeated-scan chirp_wide needs --presets paper" in capsys.readouterr().err
+    assert not any(tmp_path.iterdir())
 
 
 #: Columns issue 24 asks of docs/results/comparison.csv.
