@@ -24,7 +24,8 @@ experiments/imaging.py) and 5 cm voxels (the paper's voxel map); each beam is re
 own pose. ``--repeated-scan chirp`` fires single-ping receive images driven by a 30-50 kHz sweep
 instead (six per camera image, each point registered with its image's pose; docs/imaging.md);
 ``chirp_wide`` drives them with RTIS's 20-80 kHz sweep behind the ``paper`` preset's ideal
-transducers (:func:`wide_sweep`; the broadband transducers pass 20 kHz, so ``paper`` only).
+transducers (``SonarConfig.with_wide_sweep``; the broadband transducers pass 20 kHz, so ``paper``
+only).
 
 Scoring (:func:`mitsonar.evaluation.metrics.evaluate`, 2 cm threshold). Every cloud is first
 thinned to one point per 1 cm voxel, the ground truth's resolution (:class:`VoxelThinner`: a
@@ -102,15 +103,6 @@ REPEATED_SCANS = {"ofdm": "repeated", "chirp": "repeated-chirp",
                   "chirp_wide": "repeated-chirp-wide"}
 
 
-def wide_sweep(config: mitsonar.SonarConfig) -> mitsonar.SonarConfig:
-    """``config`` driven by a 4 ms sweep over RTIS's 20-80 kHz, sampled at 250 kHz (the band's
-    top needs more than the default 200 kHz) and traced at five frequency nodes 15 kHz apart
-    (docs/imaging.md, "Frequency sweeps"). Its transducers must pass the band: the ``paper``
-    preset's ideal ones."""
-    return replace(config, pulse=mitsonar.Chirp(20e3, 80e3, 4e-3), sample_rate=250e3,
-                   trace=replace(config.trace, subbands=5))
-
-
 @dataclass(frozen=True)
 class RunSettings:
     """How each scene is reconstructed.
@@ -127,7 +119,8 @@ class RunSettings:
         repeated_scan: what repeated mode fires: "ofdm" (OFDM frames, every echo of each beam),
             "chirp" (single-ping receive images driven by a 30-50 kHz frequency sweep behind
             broadband transducers, ``RepeatedMapSpec.scan='imaging'``) or "chirp_wide" (the same
-            images driven by :func:`wide_sweep`, ``paper`` preset only); the rows' mode is
+            images driven by ``SonarConfig.with_wide_sweep``, ``paper`` preset only); the rows'
+            mode is
             :data:`REPEATED_SCANS`'s.
     """
 
@@ -193,7 +186,7 @@ def sonar_run(scene, mode: str, preset: str, trajectory, settings: RunSettings, 
         return clouds, len(clouds[-1]), len(final.scans), diagnosis
     chirp = settings.repeated_scan != "ofdm"
     if settings.repeated_scan == "chirp_wide":
-        config = wide_sweep(config)
+        config = config.with_wide_sweep()
     else:
         config = replace(config, transducer=mitsonar.Transducer.broadband(),
                          pulse=mitsonar.Chirp() if chirp else config.pulse)

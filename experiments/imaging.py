@@ -100,7 +100,7 @@ from mitsonar.signal.receiver import EchoProcessor
 
 if str(Path(__file__).resolve().parent) not in sys.path:  # the comparison's definitions
     sys.path.append(str(Path(__file__).resolve().parent))
-from comparison import IN_VIEW_PERIOD, THIN_VOXEL, VIEW_PERIOD, wide_sweep  # noqa: E402
+from comparison import IN_VIEW_PERIOD, THIN_VOXEL, VIEW_PERIOD  # noqa: E402
 
 SCENES = Path(__file__).resolve().parents[1] / "scenes"
 SCENE_NAMES = ("office", "workshop")
@@ -115,7 +115,7 @@ SCANS = ("sequential", "ofdm", "ofdm_trusted", "ofdm_image", "imaging", "imaging
 #: nodes (docs/imaging.md). The TCT40 class (``default``) passes 2 kHz: no sweep.
 CHIRP_SCANS = {
     "imaging_chirp": (("broadband", "paper"), lambda c: replace(c, pulse=mitsonar.Chirp())),
-    "imaging_chirp_wide": (("paper",), wide_sweep)}
+    "imaging_chirp_wide": (("paper",), mitsonar.SonarConfig.with_wide_sweep)}
 #: Echo sets of one sequential or OFDM simulation (module docstring).
 ECHO_SETS = ("first", "all", "cells")
 #: The lit cone of ``ofdm_trusted``: arrival directions within it of their beam's axis [rad]

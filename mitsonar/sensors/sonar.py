@@ -189,6 +189,18 @@ class SonarConfig:
             config = replace(config, pulse=Chirp())
         return config
 
+    def with_wide_sweep(self) -> "SonarConfig":
+        """This configuration driven by RTIS's sweep, 4 ms over 20-80 kHz, sampled at 250 kHz
+        (the band's top needs more than 200 kHz) and traced at five frequency nodes 15 kHz
+        apart (docs/imaging.md, "Frequency sweeps"). Its transducers must pass the sweep: the
+        ``paper`` preset's ideal ones (ValueError otherwise)."""
+        sweep = Chirp(20e3, 80e3, 4e-3)
+        if self.transducer_response and self.transducer.bandwidth_6db < sweep.bandwidth:
+            raise ValueError(f"a 20-80 kHz sweep needs transducers that pass it: these pass "
+                             f"{self.transducer.bandwidth_6db / 1e3:g} kHz")
+        return replace(self, pulse=sweep, sample_rate=250e3,
+                       trace=replace(self.trace, subbands=5))
+
     def resolved_trace(self, trace: TraceSettings | None = None,
                        max_angle: float | None = None) -> TraceSettings:
         """``trace`` (default: this configuration's) with ``subbands="auto"`` resolved for this

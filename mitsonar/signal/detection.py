@@ -38,7 +38,8 @@ class DetectionSettings:
             [s] (b: the rms bandwidth of the matched-filter output; 5: 3e-9 per beam for the
             TCT40 pulse; :func:`~mitsonar.signal.multiecho.expected_false_alarms`).
         detection_floor: absolute threshold on the envelope [Pa] (matters without noise).
-        blanking_margin: factor over the direct-path envelope a detection must exceed.
+        blanking_margin: factor over the direct-path envelope a detection must exceed; it must
+            also exceed that envelope plus the noise threshold (:func:`blanking_level`).
         min_range: nearest depth reported [m].
         ghost_margin: factor by which an off-beam receive direction must beat the beam for a
             candidate to be rejected as a side-lobe arrival (0 disables the check).
@@ -255,6 +256,17 @@ def bistatic_depth(path_length, baseline: float, cos_beam_baseline) -> np.ndarra
     """Equation (7): depth [m] from path length l [m], baseline b [m] and cos(theta_b)."""
     l = np.asarray(path_length, dtype=float)
     return (l**2 - baseline**2) / (2.0 * (l - baseline * np.asarray(cos_beam_baseline)))
+
+
+def blanking_level(threshold, direct, margin: float) -> np.ndarray:
+    """What an envelope must exceed where the direct transmitter -> receiver path's noiseless
+    envelope is ``direct`` [Pa] (any shape broadcasting with ``threshold`` [Pa], the noise
+    threshold): ``margin`` times it, and at least it plus ``threshold``. The recording holds
+    the direct path plus noise, |D + n| <= D + |n|, so a cell passes only where the noise alone
+    would pass the threshold: the design false-alarm rate holds where the direct path's tail
+    is as weak as the noise (a wide sweep's, traced at frequency nodes, stays 1-4 times the
+    noise envelope for ms), where ``margin`` times it alone let noise through."""
+    return np.maximum(margin * direct, threshold + direct)
 
 
 def vertex(y0, y1, y2) -> np.ndarray:

@@ -26,7 +26,8 @@ Points. A cell (direction d, sample k) inside the field of view is a point when
 1. it exceeds ``detection_snr`` times the RMS noise envelope
    (:meth:`~mitsonar.signal.receiver.EchoProcessor.noise_envelope_rms`; at least
    ``detection_floor``), ``blanking_margin`` times the image of the direct transmitter ->
-   receiver path alone (direct-path blanking), and lies beyond ``min_range``;
+   receiver path alone and that image plus the threshold (direct-path blanking,
+   :func:`~mitsonar.signal.detection.blanking_level`), and lies beyond ``min_range``;
 2. it is a range peak: the largest value of its direction within +- one range resolution (the
    full width at half maximum of an echo's matched-filter envelope,
    :attr:`ReceiveImager.range_resolution`), so two echoes of one direction further apart than
@@ -108,7 +109,7 @@ from mitsonar.signal.band import Band, Recording
 from mitsonar.signal.beamforming import peak_offsets
 from mitsonar.signal.cone import expected_blobs
 from mitsonar.signal.placement import place
-from mitsonar.signal.detection import DetectionSettings, vertex
+from mitsonar.signal.detection import DetectionSettings, blanking_level, vertex
 from mitsonar.signal.receiver import EchoProcessor
 from mitsonar.validation import check_positive, check_range
 
@@ -351,7 +352,7 @@ class ReceiveImager:
         n = image.shape[1]
         path = self.c * (start_time + np.arange(n) / fs)
         level = self.threshold if direct_image is None \
-            else np.maximum(self.threshold, self.detection.blanking_margin * direct_image[fov])
+            else blanking_level(self.threshold, direct_image[fov], self.detection.blanking_margin)
         window = path[None, :] >= self._min_path[fov, None]
         window[:, [0, -1]] = False
         above = (sub > level) & window

@@ -27,7 +27,8 @@ Order and choices:
 * Detection: candidates are the envelope's local maxima beyond ``min_range`` that exceed
   ``detection_snr`` times the RMS noise envelope (known from the receiver noise), an absolute
   ``detection_floor``, and ``blanking_margin`` times the envelope of the direct
-  transmitter->receiver path alone (direct-path blanking). Strongest first, a candidate is
+  transmitter->receiver path alone and that envelope plus the noise threshold (direct-path
+  blanking, :func:`~mitsonar.signal.detection.blanking_level`). Strongest first, a candidate is
   accepted unless it arrives from elsewhere: receive beams formed from the same recording at that
   instant over +-50 deg show it ``ghost_margin`` stronger outside the main lobe than
   along the beam (a side-lobe echo, e.g. the specular return of a tilted wall, which would give a
@@ -85,8 +86,8 @@ from mitsonar.physics.array import ArrayGeometry
 from mitsonar.signal.band import Band, Recording
 from mitsonar.signal.beamforming import Beamformer, dot
 from mitsonar.signal import cone, crosstalk, multiecho, offbeam, placement, sidelobe
-from mitsonar.signal.detection import (Detection, Detections, DetectionSettings, candidates,
-                                       local_maxima)
+from mitsonar.signal.detection import (Detection, Detections, DetectionSettings, blanking_level,
+                                       candidates, local_maxima)
 from mitsonar.signal.looks import Looks, Waveforms
 
 #: Cross-talk between the waveforms of one recording is followed out to the lags where their
@@ -300,7 +301,7 @@ class EchoProcessor:
         level = np.maximum(s.detection_snr * waves.noise[waves.kind], s.detection_floor)
         threshold = np.broadcast_to(level[:, None], envelopes.shape)
         if direct_envelopes is not None:
-            threshold = np.maximum(threshold, s.blanking_margin * direct_envelopes)
+            threshold = blanking_level(threshold, direct_envelopes, s.blanking_margin)
         window = path >= l_min[:, None]
         if max_path_length is not None:
             window &= path <= max_path_length
