@@ -92,9 +92,8 @@ class SurfelSettings:
             range belongs to a direction up to a fraction of the footprint off the beam axis,
             plus the timing error. 0.5 deg: the echoes of room_glass's and structure's first
             8 s (surfel, fill and check pings) lay 0.2-0.4 expected errors (RMS) off the true
-            surfaces with the paper preset and 0.25-0.8 with the default at 1 deg (at 0.5 deg
-            0.3-0.6 and 0.45-1.3), and 1 deg let an echo 10 cm off confirm a plane 3 m away
-            (docs/reconstruction.md).
+            surfaces with the paper preset and 0.25-0.8 with the default at 1 deg, which let an
+            echo 10 cm off confirm a plane 3 m away (docs/reconstruction.md).
         crease_sigma: expected error of a detected line [pixels].
         crease_gate: crease constraints whose sonar-only residual exceeds this [pixels] are not
             used (an occlusion edge or a segment between two unrelated planes).
