@@ -89,11 +89,8 @@ class SurfelSettings:
             below this (:func:`~mitsonar.recon.surfels.map.refuted_groups`); 0: no such test.
         range_sigma, angle_sigma: a point at range r seen at incidence theta is expected off
             its plane by sqrt(range_sigma^2 + (r tan(angle_sigma) sin(theta))^2) [m]: the echo's
-            range belongs to a direction up to a fraction of the footprint off the beam axis,
-            plus the timing error. 0.5 deg: the echoes of room_glass's and structure's first
-            8 s (surfel, fill and check pings) lay 0.2-0.4 expected errors (RMS) off the true
-            surfaces with the paper preset and 0.25-0.8 with the default at 1 deg, which let an
-            echo 10 cm off confirm a plane 3 m away (docs/reconstruction.md).
+            range belongs to a direction up to a fraction of the footprint off the beam axis
+            (1 deg: 2-3.5 cm measured at 2-2.5 m and 20-75 deg incidence), plus the timing error.
         crease_sigma: expected error of a detected line [pixels].
         crease_gate: crease constraints whose sonar-only residual exceeds this [pixels] are not
             used (an occlusion edge or a segment between two unrelated planes).
@@ -129,7 +126,7 @@ class SurfelSettings:
     min_refutations: int = 3
     fit_significance: float = 1e-3
     range_sigma: float = 0.005
-    angle_sigma: float = np.radians(0.5)
+    angle_sigma: float = np.radians(1.0)
     crease_sigma: float = 1.0
     crease_gate: float = 30.0
 
