@@ -51,7 +51,7 @@ reconstruction <scene>/<sensor>[_<mode>_<preset>].ply (points with their distanc
     .venv/bin/python experiments/comparison.py --scenes workshop --presets default \
         --baselines lidar --repeated-scan chirp --out out/comparison_chirp   # ~1 h a scene
     .venv/bin/python experiments/comparison.py --scenes workshop --presets paper \
-        --baselines lidar --repeated-scan chirp_wide --out out/comparison_wide   # ~2 h a scene
+        --baselines lidar --repeated-scan chirp_wide --out out/comparison_wide   # ~1.5 h a scene
 """
 
 from __future__ import annotations
@@ -119,9 +119,8 @@ class RunSettings:
         repeated_scan: what repeated mode fires: "ofdm" (OFDM frames, every echo of each beam),
             "chirp" (single-ping receive images driven by a 30-50 kHz frequency sweep behind
             broadband transducers, ``RepeatedMapSpec.scan='imaging'``) or "chirp_wide" (the same
-            images driven by ``SonarConfig.with_wide_sweep``, ``paper`` preset only); the rows'
-            mode is
-            :data:`REPEATED_SCANS`'s.
+            images driven by ``SonarConfig.with_wide_sweep``, ``paper`` preset only); each
+            row's mode is the scan's in :data:`REPEATED_SCANS`.
     """
 
     duration: float | None
