@@ -346,9 +346,13 @@ def parse_args(argv):
     presets = tuple(args.presets.split(","))
     if not presets or set(presets) - set(PRESETS):
         parser.error(f"--presets: give some of {', '.join(PRESETS)}, got {args.presets!r}")
-    if args.repeated_scan == "chirp_wide" and presets != ("paper",):
-        parser.error("--repeated-scan chirp_wide needs --presets paper: the default preset's "
-                     "broadband transducers pass 20 kHz, not the sweep's 60 kHz")
+    if args.repeated_scan == "chirp_wide":
+        for preset in presets:
+            try:
+                mitsonar.SonarConfig.preset(preset).with_wide_sweep()
+            except ValueError as error:
+                parser.error(f"--repeated-scan chirp_wide needs --presets paper: the "
+                             f"{preset!r} preset: {error}")
     baselines = () if args.baselines == "none" else tuple(args.baselines.split(","))
     if set(baselines) - set(BASELINES):
         parser.error(f"--baselines: give some of {', '.join(BASELINES)} or none, "

@@ -183,9 +183,7 @@ class SonarConfig:
         ideal ones of ``paper`` (ValueError otherwise)."""
         config = replace(self, transducer=Transducer.broadband()) if broadband else self
         if chirp:
-            if config.transducer_response and config.transducer.bandwidth_6db < Chirp().bandwidth:
-                raise ValueError(f"a 30-50 kHz sweep needs transducers that pass it: these pass "
-                                 f"{config.transducer.bandwidth_6db / 1e3:g} kHz")
+            config._check_passes(Chirp())
             config = replace(config, pulse=Chirp())
         return config
 
@@ -195,11 +193,16 @@ class SonarConfig:
         apart (docs/imaging.md, "Frequency sweeps"). Its transducers must pass the sweep: the
         ``paper`` preset's ideal ones (ValueError otherwise)."""
         sweep = Chirp(20e3, 80e3, 4e-3)
-        if self.transducer_response and self.transducer.bandwidth_6db < sweep.bandwidth:
-            raise ValueError(f"a 20-80 kHz sweep needs transducers that pass it: these pass "
-                             f"{self.transducer.bandwidth_6db / 1e3:g} kHz")
+        self._check_passes(sweep)
         return replace(self, pulse=sweep, sample_rate=250e3,
                        trace=replace(self.trace, subbands=5))
+
+    def _check_passes(self, sweep: Chirp) -> None:
+        """ValueError naming the sweep's band where the transducers pass less than it."""
+        if self.transducer_response and self.transducer.bandwidth_6db < sweep.bandwidth:
+            raise ValueError(f"a {min(sweep.start, sweep.stop) / 1e3:g}-"
+                             f"{max(sweep.start, sweep.stop) / 1e3:g} kHz sweep needs transducers "
+                             f"that pass it: these pass {self.transducer.bandwidth_6db / 1e3:g} kHz")
 
     def resolved_trace(self, trace: TraceSettings | None = None,
                        max_angle: float | None = None) -> TraceSettings:
