@@ -68,6 +68,55 @@ def test_grouping_merges_coplanar_surfels_and_keeps_others_apart():
     np.testing.assert_allclose(groups.normals[1], [0, 0, 1], atol=1e-9)
 
 
+def test_grouping_leaves_surfels_marked_alone_in_groups_of_their_own():
+    """Four surfels on the wall x = 2 form one group; marked ``alone``, the second and third
+    form a group each (neither joins the wall's nor is joined), the other two stay together."""
+    wall = np.array([_surfel([2.0, y, z], [0, 1, 0], [0, 0, 1]) for y, z in
+                     [(-1.5, 0.5), (-0.5, 1.2), (0.5, 0.4), (1.5, 0.8)]])
+    view = np.zeros((len(wall), 3))
+    assert group_surfels(wall, view).label.tolist() == [0, 0, 0, 0]
+    alone = np.array([False, True, True, False])
+    assert group_surfels(wall, view, alone=alone).label.tolist() == [0, 1, 2, 0]
+
+
+def test_a_refuted_group_of_several_surfels_is_split_before_any_is_dropped(monkeypatch):
+    """Three surfels on a wall 2 m ahead form one group. When the check pings refute every group
+    that holds the second or the third (as a recessed window's pane surfel is refuted with the
+    two surfels straddling its reveal that joined it, varied_7), the group is split first and
+    only those two are dropped when refuted alone: the first keeps its plane."""
+    from dataclasses import replace
+
+    from mitsonar.recon.lines import scan_pixels
+    from mitsonar.recon.surfels import map as surfel_map_module
+
+    triangles = np.array([[[20.5, 20.5], [80.5, 20.5], [20.5, 80.5]],
+                          [[120.5, 20.5], [180.5, 20.5], [120.5, 80.5]],
+                          [[120.5, 130.5], [180.5, 130.5], [180.5, 70.5]]])
+    scan = _scan_stub([])
+    points = np.stack([_along_pixels(scan.camera, p, 2.0) for p in scan_pixels(triangles)])
+    scan = replace(scan, triangles=triangles, segment_pairs=np.full((3, 2), -1),
+                   residual=np.zeros(3), accepted=np.ones(3, bool), points_world=points)
+
+    def refuted(scans, meshes, groups, settings):
+        return np.isin(np.arange(len(groups)), groups.label[np.isin(found.surfel_index, [1, 2])])
+
+    found = surfel_map_module.build_map([scan], SurfelSettings(image_width=200))
+    assert found.groups.label.tolist() == [0, 0, 0]
+    original = surfel_map_module._build
+
+    def build(*args):
+        nonlocal found
+        found = original(*args)
+        return found
+
+    monkeypatch.setattr(surfel_map_module, "refuted_groups", refuted)
+    monkeypatch.setattr(surfel_map_module, "_build", build)
+    kept = surfel_map_module.build_map([scan], SurfelSettings(image_width=200))
+    assert kept.surfel_index.tolist() == [0] and len(kept.groups) == 1
+    assert kept.rejected["refuted"] == 2
+    assert abs(kept.groups.offsets[0] + 2.0) < 1e-6
+
+
 def test_grouping_judges_a_small_noisy_surfel_by_its_points():
     """Four surfels with eight fill points each (5 mm noise) on the wall x = 2, seen from 2 m
     away; a small surfel (8 cm) on it whose 1.5 cm point errors tilt its normal 11 deg (beyond

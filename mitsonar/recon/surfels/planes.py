@@ -261,8 +261,16 @@ def _drop_misfits(sums, label, limit: float) -> np.ndarray:
     return _relabel(label)
 
 
+def _apart(i, j, alone) -> tuple[np.ndarray, np.ndarray]:
+    """Link pairs (i, j) without those that touch a member flagged in ``alone`` (None: all)."""
+    if alone is None:
+        return i, j
+    keep = ~(alone[i] | alone[j])
+    return i[keep], j[keep]
+
+
 def group_surfels(points, viewpoints, settings: SurfelSettings = SurfelSettings(),
-                  extra=None) -> PlaneGroups:
+                  extra=None, alone=None) -> PlaneGroups:
     """Plane groups of registered surfels (package docstring: grouping, (14)(15), iteration).
 
     Args:
@@ -271,6 +279,8 @@ def group_surfels(points, viewpoints, settings: SurfelSettings = SurfelSettings(
         settings: ``merge_angle``, ``merge_sigmas``, ``range_sigma``, ``angle_sigma`` (the
             tolerances) and ``max_iterations`` (cap on the regroup/refit rounds).
         extra: (k, m, 3) fill points of each surfel [m] (NaN-padded), used in the tests and fits.
+        alone: (k,) True for surfels that form a group of their own whatever they fit (the
+            members of a group the check pings refuted, judged one by one); None: none.
     """
     p = np.asarray(points, dtype=float)
     if p.ndim != 3 or p.shape[1:] != (4, 3):
@@ -288,7 +298,9 @@ def group_surfels(points, viewpoints, settings: SurfelSettings = SurfelSettings(
     surfel_normals, _, own_error = stats
     sums = _weighted_sums(p, seen, surfel_normals, settings, np.nanmean(p.reshape(-1, 3), axis=0))
     limit = _coplanar_limit(settings)
-    label = _drop_misfits(sums, _components(len(p), *_links(p, seen, settings, stats)), limit)
+    alone = None if alone is None or not np.any(alone) else np.asarray(alone, dtype=bool)
+    label = _drop_misfits(sums, _components(len(p), *_apart(*_links(p, seen, settings, stats),
+                                                             alone)), limit)
     z = settings.merge_sigmas
     for iteration in range(1, settings.max_iterations + 1):
         gn, gd, _, ge, _, _ = _fit_groups(p, view, label, settings)
@@ -299,11 +311,16 @@ def group_surfels(points, viewpoints, settings: SurfelSettings = SurfelSettings(
         gate = settings.merge_angle + z * np.hypot(own_error[:, None], ge[None, :])
         fits = (misfit <= z) & (np.arccos(np.clip(np.abs(surfel_normals @ gn.T), 0, 1)) <= gate)
         fits &= _joins(sums, label, len(gn)) <= limit
+        if alone is not None:  # neither joins nor is joined
+            fits[alone] = False
+            fits[:, label[alone]] = False
         own = label.max() + 1 + np.arange(len(p))
         moved = _relabel(np.where(fits.any(axis=1),
                                   np.argmin(np.where(fits, misfit, np.inf), axis=1), own))
         *_, pts, pts_view = _fit_groups(p, view, moved, settings)
-        merged = _components(int(moved.max()) + 1, *_links(pts, pts_view, settings))[moved]
+        lone = None if alone is None else np.isin(np.arange(moved.max() + 1), moved[alone])
+        merged = _components(int(moved.max()) + 1,
+                             *_apart(*_links(pts, pts_view, settings), lone))[moved]
         merged = _drop_misfits(sums, merged, limit)
         if np.array_equal(merged, label):
             break
