@@ -117,6 +117,26 @@ def test_a_refuted_group_of_several_surfels_is_split_before_any_is_dropped(monke
     assert abs(kept.groups.offsets[0] + 2.0) < 1e-6
 
 
+def test_a_surfel_off_its_groups_final_plane_is_judged_alone():
+    """Four surfels share the plane z = 2 m, seen from the origin (expected errors 0.5-1.3 cm).
+    The third lies 10 cm behind it (a window pane behind a wall's face, varied_1) and the
+    fourth 3 cm: both misfit the plane (chi^2 p-values 2e-218 and 3e-5 over 4 points), and
+    only the worse, the third, is judged alone this round. A lone surfel 10 cm off its
+    group's plane is not (the group is its own)."""
+    from mitsonar.recon.surfels.map import SurfelMap, misfit_members
+
+    offsets = [0.0, 0.0, 0.1, 0.03, 0.1]
+    points = np.array([_surfel([x, 0.0, 2.0 + dz], [1, 0, 0], [0, 1, 0], size=0.1)
+                       for x, dz in zip([-0.6, -0.2, 0.2, 0.6, 1.0], offsets)])
+    groups = PlaneGroups(np.array([0, 0, 0, 0, 1]), np.array([[0.0, 0.0, -1.0]] * 2),
+                         np.array([-2.0, -2.0]), np.zeros((2, 3)), np.full(2, 0.01), 1)
+    scan = _scan_stub([])
+    found = SurfelMap([scan], groups, np.zeros(5, int), np.arange(5), points,
+                      np.zeros((5, 3, 3)), np.zeros((0, 3)), np.zeros((0, 3), int),
+                      np.zeros(0, int), [np.zeros(0, bool)])
+    assert misfit_members(found, SurfelSettings()).tolist() == [False, False, True, False, False]
+
+
 def test_grouping_judges_a_small_noisy_surfel_by_its_points():
     """Four surfels with eight fill points each (5 mm noise) on the wall x = 2, seen from 2 m
     away; a small surfel (8 cm) on it whose 1.5 cm point errors tilt its normal 11 deg (beyond

@@ -135,6 +135,11 @@ claiming planes and outnumber those on it; its surfels are dropped and the map i
 A refuted group of several surfels is split first and its surfels judged alone, so a good surfel
 that was joined by wrong ones survives them (varied_7: a window pane's surfel, joined by two that
 straddled the 10 cm reveal in front of it, on a plane tilted 14 deg; the pane went unmapped).
+A surfel whose own points misfit its group's final plane (their chi^2 in expected errors,
+:func:`~mitsonar.recon.surfels.map.misfit_members`) is judged alone too: grouping tests two
+surfels against a plane through both, which two small patches far apart always admit, and only
+the final plane, pinned by the check echoes, shows that one of them lies behind it (varied_1: a
+pane's surfel on the wall's plane 10 cm in front of it).
 A lone surfel's poorly determined plane claims nothing but stays a hypothesis
 (:attr:`~mitsonar.recon.surfels.growing.PoseMesh.hypotheses`): the check pings are aimed over its
 region (``tentative`` growth), the echoes on it join its fit, and the normal's standard error is
