@@ -15,8 +15,7 @@ from mitsonar.recon.surfels.growing import (_region_at, camera_rays, check_pose,
                                             segment_sides, shadow_segments)
 from mitsonar.recon.surfels.pinging import MovingPinger, StillPinger
 from mitsonar.recon.surfels.planes import (PlaneGroups, _pad_groups, _plane_offsets,
-                                           _plane_stats, _point_sigma, group_surfels,
-                                           refine_planes)
+                                           _plane_stats, group_surfels, refine_planes)
 from mitsonar.recon.surfels.scanning import PoseScan, add_surfels, scan_pose
 from mitsonar.recon.surfels.settings import SurfelSettings
 from mitsonar.recon.thinning import VoxelThinner
@@ -183,7 +182,7 @@ def refuted_groups(scans, meshes, groups: PlaneGroups, settings: SurfelSettings)
 def misfit_members(surfel_map: SurfelMap, settings: SurfelSettings) -> np.ndarray:
     """(k,) True for the registered surfels of groups of several whose points do not lie on
     their group's final plane: chi^2, the sum of their points' (four and fill) squared
-    distances from it in expected errors (:func:`~mitsonar.recon.surfels.planes._point_sigma`),
+    distances from it in expected errors (:func:`~mitsonar.recon.surfels.planes._plane_offsets`),
     has a p-value below ``fit_significance`` (a degree of freedom per point); of each group only
     the worst such surfel.
 
@@ -207,9 +206,7 @@ def misfit_members(surfel_map: SurfelMap, settings: SurfelSettings) -> np.ndarra
         if scan.fill_world is not None:
             fill = scan.fill_world[i]
             points = np.concatenate([points, fill[np.all(np.isfinite(fill), axis=1)]])
-        g = label[k]
-        off = (points @ groups.normals[g] - groups.offsets[g]) / _point_sigma(
-            points, scan.pose.translation, groups.normals[g], settings)
+        off = _plane_offsets(points, scan.pose.translation, groups, settings)[:, label[k]]
         p_value[k] = chi2.sf(np.sum(off ** 2), len(points))
     for g in np.unique(label[p_value < settings.fit_significance]):
         members = np.flatnonzero(label == g)
