@@ -121,6 +121,8 @@ class RunSettings:
             broadband transducers, ``RepeatedMapSpec.scan='imaging'``) or "chirp_wide" (the same
             images driven by ``SonarConfig.with_wide_sweep``, ``paper`` preset only); each
             row's mode is the scan's in :data:`REPEATED_SCANS`.
+        dither: OFDM beam grid dithered over ``dither`` x ``dither`` offsets from frame to frame
+            (``RepeatedMapSpec.dither``; 1: the paper's fixed grid).
     """
 
     duration: float | None
@@ -133,6 +135,7 @@ class RunSettings:
     checkpoints: int
     seed: int
     repeated_scan: str = "ofdm"
+    dither: int = 1
 
 
 @dataclass(frozen=True)
@@ -191,6 +194,7 @@ def sonar_run(scene, mode: str, preset: str, trajectory, settings: RunSettings, 
                          pulse=mitsonar.Chirp() if chirp else config.pulse)
     sonar = mitsonar.Sonar(scene, config)
     spec = RepeatedMapSpec(duration=settings.duration, scan_step=settings.step, echoes="all",
+                           dither=settings.dither,
                            seed=settings.seed, voxels=VoxelMapSettings(voxel_size=MAP_VOXEL),
                            scan="imaging" if chirp else "ofdm")
     scanned, camera = scan_repeated(sonar, trajectory, spec, progress)
@@ -334,6 +338,10 @@ def parse_args(argv):
     parser.add_argument("--spp", type=int, default=8,
                         help="surfel camera samples per pixel (default 8, denoised)")
     parser.add_argument("--step", type=float, default=5.0, help="OFDM beam grid step [deg]")
+    parser.add_argument("--dither", type=int, default=1,
+                        help="OFDM beam grid shifted through DITHER x DITHER offsets of "
+                             "step / DITHER from frame to frame (default 1: the paper's fixed "
+                             "grid)")
     parser.add_argument("--repeated-scan", choices=tuple(REPEATED_SCANS), default="ofdm",
                         help="repeated mode fires OFDM frames (ofdm, default) or single-ping "
                              "images driven by a 30-50 kHz sweep (chirp) or by a 20-80 kHz "
@@ -358,7 +366,7 @@ def parse_args(argv):
         parser.error(f"--baselines: give some of {', '.join(BASELINES)} or none, "
                      f"got {args.baselines!r}")
     for name, value, low in (("--duration", args.duration, 0.0), ("--varied", args.varied, -1),
-                             ("--checkpoints", args.checkpoints, 0)):
+                             ("--checkpoints", args.checkpoints, 0), ("--dither", args.dither, 0)):
         if value is not None and value <= low:
             parser.error(f"{name} must be > {low}, got {value}")
     return args, presets, baselines
@@ -367,7 +375,8 @@ def parse_args(argv):
 def main(argv=None) -> int:
     args, presets, baselines = parse_args(argv)
     settings = RunSettings(args.duration, args.width, args.spp, np.radians(args.step), 0.01,
-                           presets, baselines, args.checkpoints, args.seed, args.repeated_scan)
+                           presets, baselines, args.checkpoints, args.seed, args.repeated_scan,
+                           args.dither)
     scenes = args.scenes
     if args.quick:
         scenes = "room_glass,workshop" if args.scenes == ",".join(MODES) else args.scenes

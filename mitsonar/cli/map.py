@@ -34,6 +34,10 @@ def add_cli(subparsers) -> None:
                    help="fire only this many frames (default: every frame that starts while "
                         "the robot drives, back to back: 4.8 frames/s)")
     r.add_argument("--step", type=float, default=5.0, help="beam grid step [deg] (default 5)")
+    r.add_argument("--dither", type=int, default=RepeatedMapSpec.dither,
+                   help="shift the beam grid from frame to frame through DITHER x DITHER "
+                        "offsets of step / DITHER, so frames steer between each other's beams "
+                        f"(default {RepeatedMapSpec.dither}; 1: the paper's fixed grid)")
     r.add_argument("--voxel", type=float, default=0.05, help="voxel size [m] (default 0.05)")
     add_preset_argument(r)
     add_drive_arguments(r, "with --scan imaging, the most points per second: docs/imaging.md")
@@ -87,6 +91,7 @@ def _run_repeated(args) -> int:
     config = drive_config(args)
     trajectory, driven = _drive(args)
     spec = RepeatedMapSpec(frames=args.frames, duration=driven, scan_step=np.radians(args.step),
+                           dither=args.dither,
                            voxels=VoxelMapSettings(voxel_size=args.voxel),
                            registration=args.registration, echoes=args.echoes, seed=args.seed,
                            scan=args.scan)

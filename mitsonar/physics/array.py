@@ -167,12 +167,22 @@ class ArrayGeometry:
         """
         return np.asarray(direction, dtype=float) @ self.tx_positions.T / speed_of_sound
 
-    def fov_grid(self, step: float) -> np.ndarray:
+    def fov_grid(self, step: float, offset=(0.0, 0.0)) -> np.ndarray:
         """Directions (n_v * n_h, 3) on a grid of ``step`` [rad] over the field of view, row-major
-        from top-left (vertical outer, horizontal inner); 60 x 40 deg at 5 deg gives 9 x 13."""
+        from top-left (vertical outer, horizontal inner); 60 x 40 deg at 5 deg gives 9 x 13.
+
+        ``offset``: (horizontal, vertical) shift of the whole grid [rad], each within half a
+        step; beams it moves past the field of view's edge stay on the edge (a dithered grid,
+        :func:`dither_offsets`)."""
         check_positive("scan step [rad]", step)
-        h = _centred_range(self.fov_horizontal / 2, step)
-        v = _centred_range(self.fov_vertical / 2, step)
+        shift = np.asarray(offset, dtype=float)
+        if shift.shape != (2,) or not np.all(np.abs(shift) <= step / 2 + 1e-12):
+            raise ValueError(f"grid offset [rad] must be (horizontal, vertical), each within half "
+                             f"the step ({step / 2:.4g} rad), got {offset}")
+        h = np.clip(_centred_range(self.fov_horizontal / 2, step) + shift[0],
+                    -self.fov_horizontal / 2, self.fov_horizontal / 2)
+        v = np.clip(_centred_range(self.fov_vertical / 2, step) + shift[1],
+                    -self.fov_vertical / 2, self.fov_vertical / 2)
         vv, hh = np.meshgrid(v, h, indexing="ij")
         return direction_from_fov_angles(hh, vv).reshape(-1, 3)
 
@@ -189,6 +199,21 @@ class ArrayGeometry:
                 f"vertical {np.degrees(v):.1f} deg) lies outside the "
                 f"{np.degrees(self.fov_horizontal):.0f} x {np.degrees(self.fov_vertical):.0f} deg "
                 "field of view")
+
+
+def dither_offsets(step: float, dither: int) -> np.ndarray:
+    """(dither^2, 2) grid offsets [rad] (horizontal, vertical) that together sample the field of
+    view ``dither`` times more finely than a ``step`` grid: each axis at the centres of ``dither``
+    equal parts of one step, every pair once, in an order where each ``dither`` consecutive
+    offsets from the first visit every part of both axes (row k: horizontal part k mod n,
+    vertical part (k // n + k) mod n). ``dither`` 1: no offset."""
+    check_positive("scan step [rad]", step)
+    if int(dither) != dither or dither < 1:
+        raise ValueError(f"grid dither must be a positive integer, got {dither}")
+    n = int(dither)
+    k = np.arange(n * n)
+    parts = (np.stack([k % n, (k // n + k) % n], axis=1) + 0.5) / n - 0.5
+    return parts * step
 
 
 def _centred_range(half: float, step: float) -> np.ndarray:

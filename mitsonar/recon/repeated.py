@@ -40,6 +40,7 @@ import numpy as np
 
 from mitsonar.sensors.camera import CameraModel, CameraRenderer
 from mitsonar.frames import Pose
+from mitsonar.physics.array import dither_offsets
 from mitsonar.sensors.imaging_sonar import ImagingSonar, TransmitSettings
 from mitsonar.sensors.ofdm_sonar import Frame, OfdmSonar, pose_along
 from mitsonar.sensors.sonar import Sonar, beam_seed
@@ -71,6 +72,10 @@ class RepeatedMapSpec:
             n-th frame of a continuous run (frames spread along the trajectory; the ones in
             between are not simulated).
         scan_step: beam grid step over the field of view [rad] (5 deg: the paper's 13 x 9).
+        dither: the beam grid is shifted from frame to frame through ``dither`` x ``dither``
+            offsets of ``scan_step / dither`` (:func:`~mitsonar.physics.array.dither_offsets`),
+            so that consecutive frames steer between each other's beams; 1: the paper's fixed
+            grid. Steering is electronic: the sensor fires any grid at no cost.
         image_width: camera image width [pixels]; spp: camera samples per pixel.
         voxels: voxel size, outlier removal.
         registration: "beam" (each beam's pose at firing) or "frame" (one odometry pose per
@@ -94,6 +99,7 @@ class RepeatedMapSpec:
     duration: float | None = None
     interval: float | None = None
     scan_step: float = np.radians(5.0)
+    dither: int = 1
     image_width: int = 320
     spp: int = 8
     voxels: VoxelMapSettings = VoxelMapSettings()
@@ -111,6 +117,9 @@ class RepeatedMapSpec:
         if self.duration is not None:
             check_positive("RepeatedMapSpec.duration [s]", self.duration)
         check_positive("RepeatedMapSpec.scan_step [rad]", self.scan_step)
+        if int(self.dither) != self.dither or self.dither < 1:
+            raise ValueError(f"RepeatedMapSpec.dither must be a positive integer, got "
+                             f"{self.dither}")
         check_image_width("RepeatedMapSpec.image_width", self.image_width)
         if self.interval is not None:
             check_positive("RepeatedMapSpec.interval [s]", self.interval)
@@ -174,11 +183,17 @@ def scan_repeated(sonar: Sonar, trajectory: Trajectory, spec: RepeatedMapSpec = 
         detection = spec.detection(sonar.config.detection)
         ofdm = OfdmSonar(Sonar(sonar.scene, replace(sonar.config, detection=detection)),
                          shared_hits=spec.shared_hits)
-        schedule = ofdm.schedule(sonar.fov_grid(spec.scan_step))
+        geometry = sonar.config.geometry
+        schedule = ofdm.schedule(geometry.fov_grid(spec.scan_step))
+        shifted = [geometry.fov_grid(spec.scan_step, offset)
+                   for offset in dither_offsets(spec.scan_step, spec.dither)]
+        # a shifted grid keeps its beams' firing order and codes (tuned to the grid's spacing)
+        schedules = [replace(schedule, directions=d) for d in shifted]
         duration = schedule.frame_duration
 
         def fire(start: float, k: int):
-            frame = ofdm.frame(schedule, pose_at, start_time=start, seed=spec.seed + k)
+            frame = ofdm.frame(schedules[k % len(schedules)], pose_at, start_time=start,
+                               seed=spec.seed + k)
             return dict(points=frame.echo_table.point,
                         world_from_sensor=frame.echo_world_from_sensor, frame=frame)
     else:
