@@ -122,7 +122,8 @@ class RunSettings:
             images driven by ``SonarConfig.with_wide_sweep``, ``paper`` preset only); each
             row's mode is the scan's in :data:`REPEATED_SCANS`.
         dither: OFDM beam grid dithered over ``dither`` x ``dither`` offsets from frame to frame
-            (``RepeatedMapSpec.dither``; 1: the paper's fixed grid).
+            (``RepeatedMapSpec.dither``; 1: the paper's fixed grid); the rows' mode reads
+            "repeated-dither<n>" then.
     """
 
     duration: float | None
@@ -271,6 +272,8 @@ def run_scene(name: str, path: Path, modes, settings: RunSettings) -> tuple[list
     recs = []
     for mode in modes:
         shown = REPEATED_SCANS[settings.repeated_scan] if mode == "repeated" else mode
+        if mode == "repeated" and settings.repeated_scan == "ofdm" and settings.dither > 1:
+            shown += f"-dither{settings.dither}"
         for preset in settings.presets:
             start = time.perf_counter()
             with tqdm(desc=f"{name}: sonar ({shown}, {preset})", file=sys.stderr) as bar:
