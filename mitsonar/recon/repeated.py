@@ -75,7 +75,9 @@ class RepeatedMapSpec:
         dither: the beam grid is shifted from frame to frame through ``dither`` x ``dither``
             offsets of ``scan_step / dither`` (:func:`~mitsonar.physics.array.dither_offsets`),
             so that consecutive frames steer between each other's beams; 1: the paper's fixed
-            grid. Steering is electronic: the sensor fires any grid at no cost.
+            grid. Steering is electronic: the sensor fires any grid at no cost. Each grid's
+            direct-path references are computed once and kept (about 6 MB a grid with the
+            ``paper`` preset).
         image_width: camera image width [pixels]; spp: camera samples per pixel.
         voxels: voxel size, outlier removal.
         registration: "beam" (each beam's pose at firing) or "frame" (one odometry pose per
