@@ -19,6 +19,12 @@ def check_positive(name: str, value) -> None:
         raise ValueError(f"{name} must be > 0, got {value!r}")
 
 
+def check_positive_integer(name: str, value) -> None:
+    """Raise ValueError unless ``value`` is an integer >= 1."""
+    if int(value) != value or value < 1:
+        raise ValueError(f"{name} must be a positive integer, got {value}")
+
+
 #: Narrowest camera image the pipelines take [pixels] (the camera's 4:3 frame: 8 x 6).
 MIN_IMAGE_WIDTH = 8
 

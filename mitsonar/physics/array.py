@@ -18,7 +18,7 @@ import numpy as np
 
 from mitsonar.physics.beampattern import in_fov
 from mitsonar.frames import direction_from_fov_angles, fov_angles
-from mitsonar.validation import check_finite, check_positive
+from mitsonar.validation import check_finite, check_positive, check_positive_integer
 
 #: Side of the square aperture that holds the element centres [m].
 APERTURE = 0.10
@@ -208,8 +208,7 @@ def dither_offsets(step: float, dither: int) -> np.ndarray:
     offsets from the first visit every part of both axes (row k: horizontal part k mod n,
     vertical part (k // n + k) mod n). ``dither`` 1: no offset."""
     check_positive("scan step [rad]", step)
-    if int(dither) != dither or dither < 1:
-        raise ValueError(f"grid dither must be a positive integer, got {dither}")
+    check_positive_integer("grid dither", dither)
     n = int(dither)
     k = np.arange(n * n)
     parts = (np.stack([k % n, (k // n + k) % n], axis=1) + 0.5) / n - 0.5

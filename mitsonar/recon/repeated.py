@@ -46,7 +46,7 @@ from mitsonar.sensors.ofdm_sonar import Frame, OfdmSonar, pose_along
 from mitsonar.sensors.sonar import Sonar, beam_seed
 from mitsonar.sensors.trajectory import Trajectory
 from mitsonar.signal.detection import ECHO_MODES, OFF_BEAM_MODES, DetectionSettings
-from mitsonar.validation import check_image_width, check_positive
+from mitsonar.validation import check_image_width, check_positive, check_positive_integer
 from mitsonar.recon.voxelmap import VoxelMap, VoxelMapSettings, colourise
 
 
@@ -114,14 +114,12 @@ class RepeatedMapSpec:
     transmit: TransmitSettings = TransmitSettings()
 
     def __post_init__(self):
-        if self.frames is not None and (int(self.frames) != self.frames or self.frames < 1):
-            raise ValueError(f"RepeatedMapSpec.frames must be a positive integer, got {self.frames}")
+        if self.frames is not None:
+            check_positive_integer("RepeatedMapSpec.frames", self.frames)
         if self.duration is not None:
             check_positive("RepeatedMapSpec.duration [s]", self.duration)
         check_positive("RepeatedMapSpec.scan_step [rad]", self.scan_step)
-        if int(self.dither) != self.dither or self.dither < 1:
-            raise ValueError(f"RepeatedMapSpec.dither must be a positive integer, got "
-                             f"{self.dither}")
+        check_positive_integer("RepeatedMapSpec.dither", self.dither)
         check_image_width("RepeatedMapSpec.image_width", self.image_width)
         if self.interval is not None:
             check_positive("RepeatedMapSpec.interval [s]", self.interval)

@@ -37,7 +37,7 @@ from mitsonar.frames import Pose
 from mitsonar.scene.building.lights import direct_light_integrator
 from mitsonar.scene.rays import rays
 from mitsonar.scene.loading import AcousticScene, mitsuba
-from mitsonar.validation import check_positive
+from mitsonar.validation import check_positive, check_positive_integer
 
 #: Rec. 709 luminance weights for grayscale images from linear RGB.
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
@@ -72,9 +72,7 @@ class CameraModel:
 
     def __post_init__(self):
         for name in ("width", "height", "spp", "max_depth"):
-            value = getattr(self, name)
-            if int(value) != value or value < 1:
-                raise ValueError(f"CameraModel.{name} must be a positive integer, got {value}")
+            check_positive_integer(f"CameraModel.{name}", getattr(self, name))
         check_positive("CameraModel.pixel_pitch [m]", self.pixel_pitch)
         check_positive("CameraModel.focal_length [m]", self.focal_length)
         check_positive("CameraModel.frame_rate [Hz]", self.frame_rate)

@@ -8,7 +8,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from mitsonar.recon.lines import SLOPE_SIGMA
-from mitsonar.validation import check_image_width, check_positive, check_range
+from mitsonar.validation import (check_image_width, check_positive, check_positive_integer,
+                                 check_range)
 
 @dataclass(frozen=True)
 class SurfelSettings:
@@ -139,9 +140,7 @@ class SurfelSettings:
             check_positive(f"SurfelSettings.{name}", getattr(self, name))
         check_image_width("SurfelSettings.image_width", self.image_width)
         for name in ("spp", "barrier_width", "stride", "max_iterations", "min_refutations"):
-            value = getattr(self, name)
-            if int(value) != value or value < 1:
-                raise ValueError(f"SurfelSettings.{name} must be a positive integer, got {value}")
+            check_positive_integer(f"SurfelSettings.{name}", getattr(self, name))
         if self.min_length is not None:
             check_positive("SurfelSettings.min_length [pixels]", self.min_length)
         if self.slope_sigma is not None:
