@@ -35,10 +35,10 @@ singular vector of the centred points, oriented towards the sensor positions tha
 until nothing changes: every surfel moves to the group whose fitted plane fits all its points (the
 same three tests against the group without it), the best by its worst point's distance over its
 expected error, or to a group of its own if none does, and groups whose points fit one plane
-together merge. A group of one surfel whose normal is poorly determined
-(standard error above ``max_normal_error``: a small noisy surfel that fits no other group) claims no
-image region, so no plane is grown from it (:func:`~mitsonar.recon.surfels.growing.grow_planes`; its
-points still enter the fits).
+together merge. A group whose normal is poorly determined (standard error above
+``max_normal_error``: a small noisy surfel that fits no other group, or a few small ones close
+together) claims no image region, so no plane is grown from it
+(:func:`~mitsonar.recon.surfels.growing.grow_planes`; its points still enter the fits).
 
 Deviations from the paper, measured on a rendered room corner (two walls and a floor, three
 poses 2.8 m away, 'paper' preset; per scan point, measured against the true range along the
@@ -140,11 +140,20 @@ A surfel whose own points misfit its group's final plane (their chi^2 in expecte
 surfels against a plane through both, which two small patches far apart always admit, and only
 the final plane, pinned by the check echoes, shows that one of them lies behind it (varied_1: a
 pane's surfel on the wall's plane 10 cm in front of it).
-A lone surfel's poorly determined plane claims nothing but stays a hypothesis
+A poorly determined plane (a lone surfel's, most often) claims nothing but stays a hypothesis
 (:attr:`~mitsonar.recon.surfels.growing.PoseMesh.hypotheses`): the check pings are aimed over its
 region (``tentative`` growth), the echoes on it join its fit, and the normal's standard error is
 recomputed with them, so a plane the sonar confirms over a wide area claims its region (on
 varied_1 the floor, held by one surfel, 16 deg standard error alone, 1.4 deg with its checks).
+
+The floor the robot drives on is known: its wheels stand on z = 0 of the world frame
+(``Pose.sensor_on_robot``). After the refinement, a group whose surfel, fill and check echoes fit
+that plane as well as their own (the merging tests, the ground taken as a group known exactly,
+:func:`~mitsonar.recon.surfels.planes.on_ground`) is held to it, with no normal error
+(``ground``; beyond the paper). A floor fitted to echoes at grazing incidence, whose expected
+errors are cm, and pulled by the creases of the walls around it came out tilted: on varied_9
+(region surfels, 20 s) 0.6 deg, 62 % of its 75 000 points within 2 cm, though its echoes lay
+within 2 mm of the floor; held, 97.5 %.
 
 Region surfels (:func:`~mitsonar.recon.surfels.growing.region_triangles`,
 :func:`~mitsonar.recon.surfels.scanning.add_surfels`; an addition beyond the paper, off by

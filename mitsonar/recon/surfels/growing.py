@@ -210,7 +210,7 @@ class PoseMesh:
         vertices: (V, 3) [m]; triangles: (F, 3) vertex indices; plane: (F,) group per triangle.
         regions: (H, W) region labels (see :func:`region_labels`).
         region_groups: (R, G) surfel points of each group claiming each region.
-        hypotheses: (R, G) the same, counting also the lone surfels whose normal is too poorly
+        hypotheses: (R, G) the same, counting also the groups whose normal is too poorly
             determined to claim (``max_normal_error``): planes the check pings may confirm.
         grid_pixels: (gv, gu, 2) the back-projected pixel grid [pixels].
         grid_plane: (gv, gu) plane grown at each grid pixel, -1 none.
@@ -255,8 +255,7 @@ def grow_planes(scan: PoseScan, segments, groups: PlaneGroups, surfel_points, se
     claims = np.zeros((max(regions.max() + 1, 0), n_groups), dtype=int)
     np.add.at(claims, (where[where >= 0], group_of[seen][where >= 0]), 1)
     hypotheses = claims.copy()
-    lone = np.bincount(groups.label, minlength=n_groups) == 1
-    claims[:, lone & (groups.normal_errors > settings.max_normal_error)] = 0
+    claims[:, groups.normal_errors > settings.max_normal_error] = 0
     s = settings.stride
     u0, v0, u1, v1 = scan.box
     vs, us = np.arange(v0 + s // 2, v1, s), np.arange(u0 + s // 2, u1, s)

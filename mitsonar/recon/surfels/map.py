@@ -14,8 +14,8 @@ from mitsonar.recon.surfels.growing import (_region_at, camera_rays, check_pose,
                                             heard_checks, intersect_planes, region_triangles,
                                             segment_sides, shadow_segments)
 from mitsonar.recon.surfels.pinging import MovingPinger, StillPinger
-from mitsonar.recon.surfels.planes import (PlaneGroups, _pad_groups, _plane_offsets,
-                                           _plane_stats, group_surfels, refine_planes)
+from mitsonar.recon.surfels.planes import (GROUND, PlaneGroups, _pad_groups, _plane_offsets,
+                                           _plane_stats, group_surfels, on_ground, refine_planes)
 from mitsonar.recon.surfels.scanning import PoseScan, add_surfels, scan_pose
 from mitsonar.recon.surfels.settings import SurfelSettings
 from mitsonar.recon.thinning import VoxelThinner
@@ -266,6 +266,11 @@ def _build(scans, settings: SurfelSettings, refuted, alone) -> SurfelMap:
         if all(np.array_equal(a, b) for a, b in zip(new, shadow)):
             break
         shadow = new
+    every = np.concatenate([points.reshape(-1, 3), extra.reshape(-1, 3)])
+    label = np.concatenate([np.repeat(groups.label, 4), np.repeat(groups.label, extra.shape[1])])
+    seen = np.concatenate([np.repeat(view, 4, axis=0), np.repeat(view, extra.shape[1], axis=0)])
+    finite = np.all(np.isfinite(every), axis=1)
+    every, label, seen = every[finite], label[finite], seen[finite]
     if settings.refine and len(groups):
         creases = []
         for s, r, m in zip(scans, shadow, meshes):
@@ -275,12 +280,6 @@ def _build(scans, settings: SurfelSettings, refuted, alone) -> SurfelMap:
             pose = s.camera.world_from_camera(s.pose)
             creases += [(s.camera, pose, seg, a, b) for seg, a, b in zip(segments, left, right)
                         if a >= 0 and b >= 0 and a != b]
-        every = np.concatenate([points.reshape(-1, 3), extra.reshape(-1, 3)])
-        label = np.concatenate([np.repeat(groups.label, 4),
-                                np.repeat(groups.label, extra.shape[1])])
-        seen = np.concatenate([np.repeat(view, 4, axis=0), np.repeat(view, extra.shape[1], axis=0)])
-        finite = np.all(np.isfinite(every), axis=1)
-        every, label, seen = every[finite], label[finite], seen[finite]
         previous = None
         for _ in range(settings.max_iterations):  # until the check points on the planes settle
             checked, check_label, check_view = _check_points(scans, meshes, groups, settings)
@@ -291,11 +290,20 @@ def _build(scans, settings: SurfelSettings, refuted, alone) -> SurfelMap:
             groups = refine_planes(groups, np.concatenate([every, checked]),
                                    np.concatenate([label, check_label]),
                                    np.concatenate([seen, check_view]), creases, settings)
-        # the check echoes on a plane widen its support: a lone surfel's plane they confirm
+        # the check echoes on a plane widen its support: a poorly determined plane they confirm
         # over a wide area is then well determined and claims its regions
+        every, seen = np.concatenate([every, checked]), np.concatenate([seen, check_view])
+        label = np.concatenate([label, check_label])
         groups = replace(groups, normal_errors=_plane_stats(*_pad_groups(
-            np.concatenate([every, checked])[:, None], np.concatenate([seen, check_view]),
-            np.concatenate([label, check_label])), settings)[2])
+            every[:, None], seen, label), settings)[2])
+    if settings.ground and len(groups):  # the floor the robot drives on is known exactly
+        floor = on_ground(groups, every, label, seen, settings)
+        if np.any(floor):
+            normals, offsets = groups.normals.copy(), groups.offsets.copy()
+            normals[floor], offsets[floor] = GROUND
+            groups = replace(groups, normals=normals, offsets=offsets,
+                             normal_errors=np.where(floor, 0.0, groups.normal_errors))
+    if (settings.refine or settings.ground) and len(groups):
         meshes = [grow_planes(s, s.segments[~r], groups, points, settings, checks)
                   for s, r in zip(scans, shadow)]
     vertices, triangles, plane, offset = [], [], [], 0

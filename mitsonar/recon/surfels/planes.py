@@ -189,8 +189,7 @@ class PlaneGroups:
         offsets: (G,) [m], n . x = d on the plane.
         centroids: (G, 3) [m] mean of the group's points.
         normal_errors: (G,) standard errors of the least-squares normals [rad]
-            (:func:`_plane_stats`); single-surfel groups above ``max_normal_error`` are not
-            grown.
+            (:func:`_plane_stats`); groups above ``max_normal_error`` are not grown.
         iterations: regroup/refit rounds run.
     """
 
@@ -327,6 +326,42 @@ def group_surfels(points, viewpoints, settings: SurfelSettings = SurfelSettings(
         label = merged
     gn, gd, gc, ge, _, _ = _fit_groups(p, view, label, settings)
     return PlaneGroups(label, gn, gd, gc, ge, iteration)
+
+
+#: The floor the robot drives on: the plane z = 0 of the world frame, where
+#: ``Pose.sensor_on_robot`` puts its wheels (unit normal, offset [m]).
+GROUND = (np.array([0.0, 0.0, 1.0]), 0.0)
+
+
+def on_ground(groups: PlaneGroups, points, label, viewpoints,
+              settings: SurfelSettings = SurfelSettings()) -> np.ndarray:
+    """(G,) True for the groups whose points fit the ground plane (:data:`GROUND`) as the
+    merging tests let two groups share a plane, the ground being known exactly: every point
+    within ``merge_sigmas`` expected errors of it, and its chi^2 there exceeding that of the
+    group's own least-squares plane by at most :func:`_coplanar_limit` (three points at least).
+
+    Args:
+        points: (P, 3) measured points [m] (surfel, fill and check echoes); label: (P,) their
+            group; viewpoints: (P, 3) the sensor positions they were measured from [m].
+    """
+    n_groups = len(groups)
+    label = np.asarray(label)
+    if n_groups == 0 or len(label) == 0:
+        return np.zeros(n_groups, dtype=bool)
+    up, level = GROUND
+    sigma = _point_sigma(points, viewpoints, up, settings)
+    z = (points @ up - level) / sigma
+    worst = np.zeros(n_groups)
+    np.maximum.at(worst, label, np.abs(z))
+    ground = np.bincount(label, weights=z ** 2, minlength=n_groups)
+    pts, view = _pad_groups(points[:, None], viewpoints, label)
+    pts, view = np.concatenate([pts, np.full((n_groups - len(pts),) + pts.shape[1:], np.nan)]), \
+        np.concatenate([view, np.full((n_groups - len(view),) + view.shape[1:], np.nan)])
+    own = _misfit(*_weighted_sums(pts, view, np.tile(up, (n_groups, 1)), settings,
+                                  np.nanmean(points, axis=0)))
+    count = np.bincount(label, minlength=n_groups)
+    return (count >= 3) & (worst <= settings.merge_sigmas) \
+        & (ground - own <= _coplanar_limit(settings))
 
 
 def project_onto_plane(points, normal, offset) -> np.ndarray:

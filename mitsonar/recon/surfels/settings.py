@@ -34,8 +34,10 @@ class SurfelSettings:
             errors (``range_sigma``, ``angle_sigma``) of it and one plane fits them no worse
             than a plane each beyond the chi^2 (3 degrees of freedom) quantile this many normal
             deviates cover (package docstring).
-        max_normal_error: a group of one surfel whose normal's standard error exceeds this
-            [rad] (a small noisy surfel) claims no image region: no plane is grown from it.
+        max_normal_error: a plane group whose normal's standard error exceeds this [rad] (a
+            small noisy surfel, or a few small ones close together) claims no image region: no
+            plane is grown from it until check echoes pin it down (varied_4 with region surfels:
+            two surfels of one pose, 6.5 deg, grew a plane 21 deg off the wall, 9 % within 2 cm).
         max_link_error: a surfel or group whose normal's standard error exceeds this [rad]
             links no others into one group (:func:`~mitsonar.recon.surfels.planes._links`).
         barrier_extension: how far each segment is extended at both ends when drawn as a
@@ -81,6 +83,12 @@ class SurfelSettings:
             doubles room_glass's completeness over the first 8 s at the same accuracy, but on
             generated rooms a floor plane of two region surfels seen at grazing incidence was
             tilted 0.8 deg and 2 cm low (varied_9: 95.8 -> 57.9 % within 2 cm).
+        ground: hold to the floor the robot drives on (z = 0 of the world frame, where its
+            wheels are) every plane group whose surfel, fill and check echoes fit it as well as
+            their own plane (:func:`~mitsonar.recon.surfels.planes.on_ground`): a floor fitted
+            to echoes at grazing incidence and pulled by the image creases came out tilted
+            (varied_9, region surfels: 0.6 deg, 62 % of its points within 2 cm, its echoes
+            within 2 mm of the floor). False: every plane as fitted.
         min_refutations: a plane group is refuted (its surfels dropped) when at least this many
             check echoes in the regions it claims lie on none of their planes and they outnumber
             the echoes on it (:func:`~mitsonar.recon.surfels.map.refuted_groups`).
@@ -124,6 +132,7 @@ class SurfelSettings:
     refine: bool = True
     check_spacing: float = np.radians(5.0)
     region_surfels: bool = False
+    ground: bool = True
     min_refutations: int = 3
     fit_significance: float = 1e-3
     range_sigma: float = 0.005
