@@ -271,7 +271,8 @@ def _build(scans, settings: SurfelSettings, refuted, alone) -> SurfelMap:
     seen = np.concatenate([np.repeat(view, 4, axis=0), np.repeat(view, extra.shape[1], axis=0)])
     finite = np.all(np.isfinite(every), axis=1)
     every, label, seen = every[finite], label[finite], seen[finite]
-    if settings.refine and len(groups):
+    regrow = settings.refine and len(groups) > 0
+    if regrow:
         creases = []
         for s, r, m in zip(scans, shadow, meshes):
             segments = s.segments[~r]
@@ -303,7 +304,8 @@ def _build(scans, settings: SurfelSettings, refuted, alone) -> SurfelMap:
             normals[floor], offsets[floor] = GROUND
             groups = replace(groups, normals=normals, offsets=offsets,
                              normal_errors=np.where(floor, 0.0, groups.normal_errors))
-    if (settings.refine or settings.ground) and len(groups):
+            regrow = True
+    if regrow:
         meshes = [grow_planes(s, s.segments[~r], groups, points, settings, checks)
                   for s, r in zip(scans, shadow)]
     vertices, triangles, plane, offset = [], [], [], 0

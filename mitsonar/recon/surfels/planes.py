@@ -349,16 +349,16 @@ def on_ground(groups: PlaneGroups, points, label, viewpoints,
     if n_groups == 0 or len(label) == 0:
         return np.zeros(n_groups, dtype=bool)
     up, level = GROUND
-    sigma = _point_sigma(points, viewpoints, up, settings)
-    z = (points @ up - level) / sigma
+    w = _point_sigma(points, viewpoints, up, settings) ** -2.0
+    ground = np.bincount(label, weights=w * (points @ up - level) ** 2, minlength=n_groups)
     worst = np.zeros(n_groups)
-    np.maximum.at(worst, label, np.abs(z))
-    ground = np.bincount(label, weights=z ** 2, minlength=n_groups)
-    pts, view = _pad_groups(points[:, None], viewpoints, label)
-    pts, view = np.concatenate([pts, np.full((n_groups - len(pts),) + pts.shape[1:], np.nan)]), \
-        np.concatenate([view, np.full((n_groups - len(view),) + view.shape[1:], np.nan)])
-    own = _misfit(*_weighted_sums(pts, view, np.tile(up, (n_groups, 1)), settings,
-                                  np.nanmean(points, axis=0)))
+    np.maximum.at(worst, label, np.abs(points @ up - level) * np.sqrt(w))
+    q = points - points.mean(axis=0)  # the weighted sums of each group's own plane fit
+    first = np.stack([np.bincount(label, weights=w * q[:, i], minlength=n_groups)
+                      for i in range(3)], axis=1)
+    second = np.zeros((n_groups, 3, 3))
+    np.add.at(second, label, w[:, None, None] * q[:, :, None] * q[:, None, :])
+    own = _misfit(np.bincount(label, weights=w, minlength=n_groups), first, second)
     count = np.bincount(label, minlength=n_groups)
     return (count >= 3) & (worst <= settings.merge_sigmas) \
         & (ground - own <= _coplanar_limit(settings))

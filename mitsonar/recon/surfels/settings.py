@@ -88,7 +88,8 @@ class SurfelSettings:
             their own plane (:func:`~mitsonar.recon.surfels.planes.on_ground`): a floor fitted
             to echoes at grazing incidence and pulled by the image creases came out tilted
             (varied_9, region surfels: 0.6 deg, 62 % of its points within 2 cm, its echoes
-            within 2 mm of the floor). False: every plane as fitted.
+            within 2 mm of the floor). The check echoes join the test only with ``refine``,
+            which gathers them. False: every plane as fitted.
         min_refutations: a plane group is refuted (its surfels dropped) when at least this many
             check echoes in the regions it claims lie on none of their planes and they outnumber
             the echoes on it (:func:`~mitsonar.recon.surfels.map.refuted_groups`).
