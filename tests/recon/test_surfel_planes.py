@@ -154,9 +154,41 @@ def test_groups_that_fit_the_floor_the_robot_drives_on():
     points = np.concatenate([floor, board, wall, floor[:2]])
     label = np.repeat([0, 1, 2, 3], [12, 12, 12, 2])
     view = np.tile([0.0, 0.0, 0.575], (len(points), 1))
-    groups = PlaneGroups(label, np.tile([0.0, 0.0, 1.0], (4, 1)), np.zeros(4),
-                         np.zeros((4, 3)), np.full(4, 0.01), 1)
-    assert on_ground(groups, points, label, view).tolist() == [True, False, False, False]
+    assert on_ground(4, points, label, view).tolist() == [True, False, False, False]
+
+
+def test_floor_surfels_form_one_group_and_join_no_other():
+    """Six 40 cm surfels on a plane tilted 10 deg up from the floor (a slope meeting the floor
+    at y = 0.33 m) and two 20 cm floor surfels across that line, seen from 0.5 m up: a floor
+    surfel's normal is poorly determined at grazing incidence (tens of degrees), and its
+    echoes lie within 2 cm (under one expected error) of the tilted plane too, so both join
+    the slope's group; held apart (``together``: the surfels that fit the ground alone,
+    :func:`~mitsonar.recon.surfels.map._grounded`), the slope's group keeps its six and the
+    two floor surfels form the last group."""
+    from mitsonar.recon.surfels.map import _grounded
+
+    tilt = np.radians(10.0)
+    up = np.array([0.0, -np.sin(tilt), np.cos(tilt)])
+    along = np.array([0.0, np.cos(tilt), np.sin(tilt)])  # up the slope
+    corner = np.array([[0.0, 0.0], [0.4, 0.0], [0.0, 0.4], [0.13, 0.13]])
+    slope = np.array([[0.33 * np.array([0, 1, 0]) + (x0 + a) * np.array([1.0, 0, 0])
+                       + (s0 + b) * along for a, b in corner]
+                      for x0 in (-0.6, 0.1) for s0 in (1.2, 2.2, 3.2)])
+    floor = np.array([[[x0 + a / 2, 0.23 + b / 2, 0.0] for a, b in corner] for x0 in (0.3, 0.6)])
+    floor[..., 2] += np.array([0.002, -0.001, 0.0, 0.001])  # echoes a few mm about the floor
+    points = np.concatenate([slope, floor])
+    view = np.tile([0.0, -1.5, 0.5], (len(points), 1))
+    settings = SurfelSettings()
+    assert np.abs(slope @ up - 0.33 * up[1]).max() < 1e-12
+    grouped = group_surfels(points, view, settings)
+    assert grouped.label.tolist() == [0] * 8  # the floor surfels join the slope
+    extra = np.full((len(points), 0, 3), np.nan)
+    floored = _grounded(points, view, extra, settings)
+    assert floored.tolist() == [False] * 6 + [True] * 2
+    apart = group_surfels(points, view, settings, together=floored)
+    assert apart.label.tolist() == [0] * 6 + [1] * 2
+    assert np.degrees(np.arccos(apart.normals[0] @ up)) < 0.1
+    assert np.degrees(np.arccos(apart.normals[1][2])) < 0.5
 
 
 def _wall_crease_camera():

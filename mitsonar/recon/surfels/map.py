@@ -245,6 +245,16 @@ def build_map(scans, settings: SurfelSettings = SurfelSettings()) -> SurfelMap:
     return surfel_map
 
 
+def _grounded(points, viewpoints, extra, settings: SurfelSettings) -> np.ndarray:
+    """(k,) True for the surfels whose points (k, 4, 3) and fill points (k, m, 3) [m]
+    (NaN-padded), seen from viewpoints (k, 3) [m], fit the ground alone (:func:`on_ground`)."""
+    every = np.concatenate([points, extra], axis=1)
+    label = np.broadcast_to(np.arange(len(every))[:, None], every.shape[:2])
+    seen = np.broadcast_to(viewpoints[:, None], every.shape)
+    finite = np.all(np.isfinite(every), axis=-1)
+    return on_ground(len(every), every[finite], label[finite], seen[finite], settings)
+
+
 def _build(scans, settings: SurfelSettings, refuted, alone) -> SurfelMap:
     """:func:`build_map` without the surfels ``refuted``, those ``alone`` in groups of their own
     (both per pose, (k,) bool over its candidates)."""
@@ -252,8 +262,9 @@ def _build(scans, settings: SurfelSettings, refuted, alone) -> SurfelMap:
     checks = heard_checks(scans)
     for _ in range(2):  # group, find shadow lines, then once more without them
         pose_ids, index, points, view, extra = _register(scans, shadow, refuted)
-        groups = group_surfels(points, view, settings, extra,
-                               np.array([alone[p][i] for p, i in zip(pose_ids, index)], bool))
+        apart = np.array([alone[p][i] for p, i in zip(pose_ids, index)], bool)
+        floor = _grounded(points, view, extra, settings) & ~apart if settings.ground else None
+        groups = group_surfels(points, view, settings, extra, apart, floor)
         meshes = [grow_planes(s, s.segments[~r], groups, points, settings, checks)
                   for s, r in zip(scans, shadow)]
         if not settings.remove_shadows:
@@ -298,7 +309,7 @@ def _build(scans, settings: SurfelSettings, refuted, alone) -> SurfelMap:
         groups = replace(groups, normal_errors=_plane_stats(*_pad_groups(
             every[:, None], seen, label), settings)[2])
     if settings.ground and len(groups):  # the floor the robot drives on is known exactly
-        floor = on_ground(groups, every, label, seen, settings)
+        floor = on_ground(len(groups), every, label, seen, settings)
         if np.any(floor):
             normals, offsets = groups.normals.copy(), groups.offsets.copy()
             normals[floor], offsets[floor] = GROUND

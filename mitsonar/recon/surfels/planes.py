@@ -269,7 +269,7 @@ def _apart(i, j, alone) -> tuple[np.ndarray, np.ndarray]:
 
 
 def group_surfels(points, viewpoints, settings: SurfelSettings = SurfelSettings(),
-                  extra=None, alone=None) -> PlaneGroups:
+                  extra=None, alone=None, together=None) -> PlaneGroups:
     """Plane groups of registered surfels (package docstring: grouping, (14)(15), iteration).
 
     Args:
@@ -280,6 +280,8 @@ def group_surfels(points, viewpoints, settings: SurfelSettings = SurfelSettings(
         extra: (k, m, 3) fill points of each surfel [m] (NaN-padded), used in the tests and fits.
         alone: (k,) True for surfels that form a group of their own whatever they fit (the
             members of a group the check pings refuted, judged one by one); None: none.
+        together: (k,) True for surfels (not ``alone``) that form one group, the last, and
+            join no other (those on the floor the robot drives on); None: none.
     """
     p = np.asarray(points, dtype=float)
     if p.ndim != 3 or p.shape[1:] != (4, 3):
@@ -290,6 +292,17 @@ def group_surfels(points, viewpoints, settings: SurfelSettings = SurfelSettings(
     if len(p) == 0:
         return PlaneGroups(np.zeros(0, int), np.zeros((0, 3)), np.zeros(0), np.zeros((0, 3)),
                            np.zeros(0), 0)
+    if together is not None and np.any(together):
+        together = np.asarray(together, dtype=bool)
+        rest = group_surfels(p[~together], view[~together], settings,
+                             None if extra is None else np.asarray(extra)[~together],
+                             None if alone is None else np.asarray(alone)[~together])
+        label = np.full(len(p), len(rest))
+        label[~together] = rest.label
+        if extra is not None:
+            p = np.concatenate([p, np.asarray(extra, dtype=float).reshape(len(p), -1, 3)], axis=1)
+        gn, gd, gc, ge, _, _ = _fit_groups(p, view, label, settings)
+        return PlaneGroups(label, gn, gd, gc, ge, rest.iterations)
     if extra is not None:
         p = np.concatenate([p, np.asarray(extra, dtype=float).reshape(len(p), -1, 3)], axis=1)
     seen = np.broadcast_to(view[:, None], p.shape)
@@ -333,18 +346,19 @@ def group_surfels(points, viewpoints, settings: SurfelSettings = SurfelSettings(
 GROUND = (np.array([0.0, 0.0, 1.0]), 0.0)
 
 
-def on_ground(groups: PlaneGroups, points, label, viewpoints,
+def on_ground(n_groups: int, points, label, viewpoints,
               settings: SurfelSettings = SurfelSettings()) -> np.ndarray:
-    """(G,) True for the groups whose points fit the ground plane (:data:`GROUND`) as the
-    merging tests let two groups share a plane, the ground being known exactly: every point
-    within ``merge_sigmas`` expected errors of it, and its chi^2 there exceeding that of the
-    group's own least-squares plane by at most :func:`_coplanar_limit` (three points at least).
+    """(G,) True for the ``n_groups`` groups (of surfels, or single surfels) whose points fit
+    the ground plane (:data:`GROUND`) as the merging tests let two groups share a plane, the
+    ground being known exactly: every point within ``merge_sigmas`` expected errors of it, and
+    its chi^2 there exceeding that of the group's own least-squares plane by at most
+    :func:`_coplanar_limit` (three points at least).
 
     Args:
+        n_groups: G.
         points: (P, 3) measured points [m] (surfel, fill and check echoes); label: (P,) their
-            group; viewpoints: (P, 3) the sensor positions they were measured from [m].
+            group in [0, G); viewpoints: (P, 3) the sensor positions they were measured from [m].
     """
-    n_groups = len(groups)
     label = np.asarray(label)
     if n_groups == 0 or len(label) == 0:
         return np.zeros(n_groups, dtype=bool)
