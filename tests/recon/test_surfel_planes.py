@@ -157,14 +157,14 @@ def test_groups_that_fit_the_floor_the_robot_drives_on():
     assert on_ground(4, points, label, view).tolist() == [True, False, False, False]
 
 
-def test_floor_surfels_form_one_group_and_join_no_other():
+def test_floor_surfels_are_grouped_apart():
     """Six 40 cm surfels on a plane tilted 10 deg up from the floor (a slope meeting the floor
     at y = 0.33 m) and two 20 cm floor surfels across that line, seen from 0.5 m up: a floor
     surfel's normal is poorly determined at grazing incidence (tens of degrees), and its
     echoes lie within 2 cm (under one expected error) of the tilted plane too, so both join
-    the slope's group; held apart (``together``: the surfels that fit the ground alone,
+    the slope's group; grouped apart (``floor``: the surfels that fit the ground alone,
     :func:`~mitsonar.recon.surfels.map._grounded`), the slope's group keeps its six and the
-    two floor surfels form the last group."""
+    two floor surfels form a group of their own, on the floor."""
     from mitsonar.recon.surfels.map import _grounded
 
     tilt = np.radians(10.0)
@@ -185,7 +185,7 @@ def test_floor_surfels_form_one_group_and_join_no_other():
     extra = np.full((len(points), 0, 3), np.nan)
     floored = _grounded(points, view, extra, settings)
     assert floored.tolist() == [False] * 6 + [True] * 2
-    apart = group_surfels(points, view, settings, together=floored)
+    apart = group_surfels(points, view, settings, floor=floored)
     assert apart.label.tolist() == [0] * 6 + [1] * 2
     assert np.degrees(np.arccos(apart.normals[0] @ up)) < 0.1
     assert np.degrees(np.arccos(apart.normals[1][2])) < 0.5

@@ -153,8 +153,8 @@ that plane as well as their own (the merging tests, the ground taken as a group 
 (``ground``; beyond the paper). A floor fitted to echoes at grazing incidence, whose expected
 errors are cm, and pulled by the creases of the walls around it came out tilted: on varied_9
 (region surfels, 20 s) 0.6 deg, 62 % of its 75 000 points within 2 cm, though its echoes lay
-within 2 mm of the floor; held, 97.5 %. The surfels whose own echoes fit the ground form one group
-before the others are grouped, and join no other: a small floor surfel's normal is poorly
+within 2 mm of the floor; held, 97.5 %. The surfels whose own echoes fit the ground are grouped
+among themselves, apart from the others: a small floor surfel's normal is poorly
 determined, so it fits other planes too, and on varied_5 (whole drive) one 5 cm floor surfel
 joined a surfel 4.5 m away whose echoes lay on a sofa's edges, on a plane tilted 10 deg off the
 floor that held 17 % of the map a median 87 cm off.

@@ -262,9 +262,9 @@ def _build(scans, settings: SurfelSettings, refuted, alone) -> SurfelMap:
     checks = heard_checks(scans)
     for _ in range(2):  # group, find shadow lines, then once more without them
         pose_ids, index, points, view, extra = _register(scans, shadow, refuted)
-        apart = np.array([alone[p][i] for p, i in zip(pose_ids, index)], bool)
-        floor = _grounded(points, view, extra, settings) & ~apart if settings.ground else None
-        groups = group_surfels(points, view, settings, extra, apart, floor)
+        single = np.array([alone[p][i] for p, i in zip(pose_ids, index)], bool)
+        floor = _grounded(points, view, extra, settings) if settings.ground else None
+        groups = group_surfels(points, view, settings, extra, single, floor)
         meshes = [grow_planes(s, s.segments[~r], groups, points, settings, checks)
                   for s, r in zip(scans, shadow)]
         if not settings.remove_shadows:

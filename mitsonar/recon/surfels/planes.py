@@ -269,7 +269,7 @@ def _apart(i, j, alone) -> tuple[np.ndarray, np.ndarray]:
 
 
 def group_surfels(points, viewpoints, settings: SurfelSettings = SurfelSettings(),
-                  extra=None, alone=None, together=None) -> PlaneGroups:
+                  extra=None, alone=None, floor=None) -> PlaneGroups:
     """Plane groups of registered surfels (package docstring: grouping, (14)(15), iteration).
 
     Args:
@@ -280,8 +280,8 @@ def group_surfels(points, viewpoints, settings: SurfelSettings = SurfelSettings(
         extra: (k, m, 3) fill points of each surfel [m] (NaN-padded), used in the tests and fits.
         alone: (k,) True for surfels that form a group of their own whatever they fit (the
             members of a group the check pings refuted, judged one by one); None: none.
-        together: (k,) True for surfels (not ``alone``) that form one group, the last, and
-            join no other (those on the floor the robot drives on); None: none.
+        floor: (k,) True for surfels grouped only among themselves, after the others (those
+            whose echoes fit the floor the robot drives on); None: none.
     """
     p = np.asarray(points, dtype=float)
     if p.ndim != 3 or p.shape[1:] != (4, 3):
@@ -292,17 +292,18 @@ def group_surfels(points, viewpoints, settings: SurfelSettings = SurfelSettings(
     if len(p) == 0:
         return PlaneGroups(np.zeros(0, int), np.zeros((0, 3)), np.zeros(0), np.zeros((0, 3)),
                            np.zeros(0), 0)
-    if together is not None and np.any(together):
-        together = np.asarray(together, dtype=bool)
-        rest = group_surfels(p[~together], view[~together], settings,
-                             None if extra is None else np.asarray(extra)[~together],
-                             None if alone is None else np.asarray(alone)[~together])
-        label = np.full(len(p), len(rest))
-        label[~together] = rest.label
-        if extra is not None:
-            p = np.concatenate([p, np.asarray(extra, dtype=float).reshape(len(p), -1, 3)], axis=1)
-        gn, gd, gc, ge, _, _ = _fit_groups(p, view, label, settings)
-        return PlaneGroups(label, gn, gd, gc, ge, rest.iterations)
+    if floor is not None and np.any(floor):
+        floor = np.asarray(floor, dtype=bool)
+        parts = [group_surfels(p[side], view[side], settings,
+                               None if extra is None else np.asarray(extra)[side],
+                               None if alone is None else np.asarray(alone)[side])
+                 for side in (~floor, floor)]
+        label = np.empty(len(p), dtype=int)
+        label[~floor], label[floor] = parts[0].label, parts[1].label + len(parts[0])
+        return PlaneGroups(label, *(np.concatenate([getattr(q, name) for q in parts])
+                                    for name in ("normals", "offsets", "centroids",
+                                                 "normal_errors")),
+                           max(q.iterations for q in parts))
     if extra is not None:
         p = np.concatenate([p, np.asarray(extra, dtype=float).reshape(len(p), -1, 3)], axis=1)
     seen = np.broadcast_to(view[:, None], p.shape)
