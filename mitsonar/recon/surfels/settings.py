@@ -91,7 +91,8 @@ class SurfelSettings:
             within 2 mm of the floor). The check echoes join the test only with ``refine``,
             which gathers them. The surfels whose own echoes fit the ground are grouped
             among themselves, apart from the others (a small one would join planes through far
-            surfels that its extent cannot refute). False: every plane as fitted, every surfel grouped alike.
+            surfels that its extent cannot refute). False: every plane as fitted, every surfel
+            grouped alike.
         min_refutations: a plane group is refuted (its surfels dropped) when at least this many
             check echoes in the regions it claims lie on none of their planes and they outnumber
             the echoes on it (:func:`~mitsonar.recon.surfels.map.refuted_groups`).
