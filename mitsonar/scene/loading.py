@@ -5,6 +5,7 @@ from __future__ import annotations
 import re
 import warnings
 from dataclasses import dataclass
+from functools import cached_property
 from pathlib import Path
 
 import numpy as np
@@ -57,8 +58,6 @@ class AcousticScene:
         materials: distinct acoustic materials.
         shape_material: (n_shapes,) index into ``materials`` per shape.
         registry_ids: (n_shapes,) Dr.Jit registry id of each shape (what ``si.shape`` holds).
-        material_of_registry_id: table from a shape's Dr.Jit registry id to its material index
-            (-1 for ids that are not shapes of this scene).
     """
 
     path: Path
@@ -67,17 +66,14 @@ class AcousticScene:
     materials: list
     shape_material: np.ndarray
     registry_ids: np.ndarray
-    material_of_registry_id: np.ndarray
 
-    def material_index(self, shape_ptr) -> np.ndarray:
-        """Material index per lane of a Dr.Jit ``ShapePtr`` array (-1 where nothing was hit)."""
-        mi = mitsuba()
-        import drjit as dr
+    @cached_property
+    def hits(self):
+        """First-hit queries on this scene (:class:`~mitsonar.scene.hits.SceneHits`), their
+        tables made once, when first asked for."""
+        from mitsonar.scene.hits import SceneHits
 
-        reg = np.asarray(dr.reinterpret_array(mi.UInt32, shape_ptr), dtype=np.int64)
-        table = self.material_of_registry_id
-        inside = reg < len(table)
-        return np.where(inside, table[np.minimum(reg, len(table) - 1)], -1)
+        return SceneHits(self)
 
 
 def load_scene(path, default_material: AcousticMaterial | None = None) -> AcousticScene:
@@ -126,10 +122,8 @@ def load_scene(path, default_material: AcousticMaterial | None = None) -> Acoust
         warnings.warn(f"{path}: {len(defaulted)} shape(s) have no acoustic material and get the "
                       f"default '{default.name}': {', '.join(defaulted)}", DefaultMaterialWarning,
                       stacklevel=2)
-    table = np.full(registry_ids.max() + 1, -1, dtype=np.int64)
-    table[registry_ids] = shape_material
     return AcousticScene(path, scene, [s.id() for s in shapes], materials, shape_material,
-                         registry_ids, table)
+                         registry_ids)
 
 
 #: Mitsuba's source location before its messages, e.g. "[parser.cpp:1718] ".

@@ -52,9 +52,16 @@ class SceneMesh:
 
     def triangle_normals(self) -> np.ndarray:
         """(F, 3) unit normals (zero for degenerate triangles)."""
-        c = self._edge_cross()
-        n = np.linalg.norm(c, axis=1, keepdims=True)
-        return np.divide(c, n, out=np.zeros_like(c), where=n > 0)
+        return face_normals(self.vertices, self.triangles)
+
+
+def face_normals(vertices: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+    """(F, 3) unit right-hand normals of ``triangles`` (F, 3) (vertex indices) of ``vertices``
+    (V, 3) [m] (zero for degenerate triangles)."""
+    v = vertices[triangles]
+    c = np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 0])
+    n = np.linalg.norm(c, axis=1, keepdims=True)
+    return np.divide(c, n, out=np.zeros_like(c), where=n > 0)
 
 
 def scene_mesh(scene: AcousticScene, tolerance: float = 1e-3, min_segments: int = 64) -> SceneMesh:

@@ -21,8 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from mitsonar.frames import SENSOR_MOUNT_TRANSLATION, Pose
-from mitsonar.scene.rays import rays
-from mitsonar.scene.loading import AcousticScene, load_scene, mitsuba, optically_transparent
+from mitsonar.scene.loading import AcousticScene, load_scene, optically_transparent
 from mitsonar.validation import check_finite, check_positive, check_range
 
 
@@ -58,23 +57,17 @@ class _OpaqueCaster:
     STEP = 1e-4
 
     def __init__(self, scene: AcousticScene, max_crossings: int):
-        self.mi = mitsuba()
         self.scene = scene
         self.max_crossings = max_crossings
-        shapes = list(scene.scene.shapes())
-        reg = np.asarray(scene.registry_ids)
-        self._shape_of_registry = np.full(reg.max() + 1, -1)
-        self._shape_of_registry[reg] = np.arange(len(reg))
-        self._transparent = np.array([optically_transparent(s.bsdf()) for s in shapes], dtype=bool)
+        self._transparent = np.array([optically_transparent(s.bsdf())
+                                      for s in scene.scene.shapes()], dtype=bool)
 
     def cast(self, origin, directions):
         """Distance t (N,) [m] (inf: no opaque hit), geometric normal (N, 3) and shape index
         (N,) (-1: none) of rays from ``origin`` ((3,), or (N, 3): one per ray) along unit
-        ``directions`` (N, 3), world frame.
+        ``directions`` (N, 3), world frame; a :meth:`SceneHits.first
+        <mitsonar.scene.hits.SceneHits.first>` per layer.
         """
-        mi = self.mi
-        import drjit as dr
-
         d = np.asarray(directions, dtype=float)
         origin = np.broadcast_to(np.asarray(origin, dtype=float), d.shape)
         o = origin.copy()
@@ -83,19 +76,12 @@ class _OpaqueCaster:
         shape = np.full(len(d), -1)
         active = np.arange(len(d))
         for _ in range(self.max_crossings + 1):  # one vectorised intersection per layer
-            si = self.scene.scene.ray_intersect(rays(o[active], d[active]))
-            valid_dr = si.is_valid()
-            dr.eval(si.p, si.n, si.shape, valid_dr)
-            valid = np.asarray(valid_dr, dtype=bool)
-            reg = np.asarray(dr.reinterpret_array(mi.UInt32, si.shape), dtype=np.int64)
-            table = self._shape_of_registry
-            index = np.where(valid & (reg < len(table)), table[np.minimum(reg, len(table) - 1)], -1)
-            p = np.asarray(si.p, dtype=float).T
+            _, p, n, index = self.scene.hits.first(o[active], d[active])
             through = (index >= 0) & self._transparent[index]
             hit = (index >= 0) & ~through
             rows = active[hit]
             t[rows] = np.einsum("ij,ij->i", p[hit] - origin[rows], d[rows])
-            normal[rows] = np.asarray(si.n, dtype=float).T[hit]
+            normal[rows] = n[hit]
             shape[rows] = index[hit]
             active = active[through]
             o[active] = p[through] + self.STEP * d[active]

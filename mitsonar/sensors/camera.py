@@ -35,7 +35,6 @@ import numpy as np
 
 from mitsonar.frames import Pose
 from mitsonar.scene.building.lights import direct_light_integrator
-from mitsonar.scene.rays import rays
 from mitsonar.scene.loading import AcousticScene, mitsuba
 from mitsonar.validation import check_positive, check_positive_integer
 
@@ -196,9 +195,6 @@ class CameraRenderer:
         self._integrator = self.mi.load_dict(
             {"type": "aov", "aovs": "albedo:albedo,nn:sh_normal", "integrator": path}
             if model.denoise else path)
-        ids = np.asarray(scene.registry_ids)
-        self._shape_of_registry = np.full(ids.max() + 1, -1)
-        self._shape_of_registry[ids] = np.arange(len(ids))
         # One sensor, moved to each pose through its parameters, and one frozen render pass
         # (module docstring): the same objects every call, so the recorded kernels replay.
         self._camera = self.mi.load_dict(self._sensor_dict())
@@ -273,20 +269,9 @@ class CameraRenderer:
 
     def ground_truth(self, camera_pose: Pose):
         """Z-depth [m] (inf: nothing) and shape index (-1: nothing) per pixel, (H, W) each."""
-        mi = self.mi
-        import drjit as dr
-
         d_cam = self.model.pixel_rays()
         d = camera_pose.transform_vectors(d_cam).reshape(-1, 3)
-        o = camera_pose.translation
-        si = self.scene.scene.ray_intersect(rays(o, d))
-        valid = si.is_valid()
-        dr.eval(si.t, si.shape, valid)
-        t = np.where(np.asarray(valid, bool), np.asarray(si.t, float), np.inf)
-        reg = np.asarray(dr.reinterpret_array(mi.UInt32, si.shape), dtype=np.int64)
-        table = self._shape_of_registry
-        index = np.where(np.asarray(valid, bool) & (reg < len(table)),
-                         table[np.minimum(reg, len(table) - 1)], -1)
+        t, _, _, index = self.scene.hits.first(np.broadcast_to(camera_pose.translation, d.shape), d)
         shape = (self.model.height, self.model.width)
         depth = (t.reshape(shape) * d_cam[..., 2]).astype(np.float32)
         return depth, index.reshape(shape).astype(np.int32)

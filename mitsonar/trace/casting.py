@@ -19,7 +19,6 @@ from mitsonar.frames import orthonormal_basis
 from mitsonar.jit import backend, to_jit
 from mitsonar.physics.array import ArrayGeometry
 from mitsonar.scene.loading import AcousticScene, mitsuba
-from mitsonar.scene.rays import rays
 from mitsonar.trace.density import (DEPTH_JUMP, block_cells, block_sizes, blocks, continuous,
                                     patch_phase_error)
 
@@ -176,7 +175,9 @@ class RayCaster:
         """First non-transparent hit of rays from ``origins`` (R, 3) [m] along unit ``directions``
         (R, 3), world frame (the sonar's own caster: acoustically transparent surfaces are passed).
 
-        Returns t (inf: miss), p, n (world), material index (-1: miss) and shape registry id.
+        Returns t (inf: miss), p, n (world), material index (-1: miss) and shape index (-1:
+        miss). Each layer is one :meth:`SceneHits.first <mitsonar.scene.hits.SceneHits.first>`
+        (Mitsuba's preliminary intersection: no per-call dispatch over the scene's shapes).
         """
         n_rays = len(origins)
         t_total = np.zeros(n_rays)
@@ -187,23 +188,19 @@ class RayCaster:
         shape = np.full(n_rays, -1)
         active = np.arange(n_rays)
         o = origins.copy()
+        hits = self.scene.hits
         for _ in range(_MAX_TRANSPARENT_LAYERS):  # loop over layers, each vectorised over rays
-            si = self.scene.scene.ray_intersect(rays(o[active], directions[active]),
-                                                ray_flags=self.mi.RayFlags.Minimal, coherent=False)
-            valid_dr = si.is_valid()
-            dr.eval(si.t, si.p, si.n, si.shape, valid_dr)  # one kernel launch for all outputs
-            valid = np.asarray(valid_dr, dtype=bool)
-            registry = np.asarray(dr.reinterpret_array(self.mi.UInt32, si.shape), dtype=np.int64)
-            m = np.where(valid, self.scene.material_index(si.shape), -1)
-            hit_t = np.asarray(si.t, dtype=float)
-            through = valid & (m >= 0) & self._transparent[np.maximum(m, 0)]
+            hit_t, hit_p, hit_n, hit_shape = hits.first(o[active], directions[active])
+            valid = hit_shape >= 0
+            m = np.where(valid, self.scene.shape_material[np.maximum(hit_shape, 0)], -1)
+            through = valid & self._transparent[np.maximum(m, 0)]
             done = ~through
             idx = active[done]
-            t[idx] = np.where(valid[done], t_total[idx] + hit_t[done], np.inf)
-            p[idx] = _rows(si.p)[done]
-            nrm[idx] = _rows(si.n)[done]
+            t[idx] = t_total[idx] + hit_t[done]
+            p[idx] = hit_p[done]
+            nrm[idx] = hit_n[done]
             mat[idx] = m[done]
-            shape[idx] = np.where(valid[done], registry[done], -1)
+            shape[idx] = hit_shape[done]
             nxt = active[through]
             step = hit_t[through] + _EPS
             t_total[nxt] += step
