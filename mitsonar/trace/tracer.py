@@ -306,6 +306,9 @@ class AcousticTracer(RayCaster):
         if self._weights is not None and len(self._weights) != geometry.tx.count:
             raise ValueError(f"TraceSettings.transmit_weights: {len(self._weights)} weights for "
                              f"{geometry.tx.count} transmit elements")
+        #: The transmit elements that fire (weight not 0): the only ones traced.
+        self._transmitting = np.arange(geometry.tx.count) if self._weights is None \
+            else np.flatnonzero(self._weights)
 
     # ---- physics ---------------------------------------------------------------------------
     def _reflection(self, mats, cos_incidence):
@@ -355,9 +358,11 @@ class AcousticTracer(RayCaster):
         edges = edges * (0.5 * k / np.pi)  # np.sinc(x) = sin(pi x) / (pi x)
         common = dict(ka=k * self.transducer.radius, log_attenuation=log_attenuation,
                       speed_of_sound=self.c)
-        tx = element_factors(points, normals, edges, g.tx_positions,
-                             self.transducer.source_amplitude * np.exp(1j * g.tx_phase_offsets),
-                             departure=None if mirror is None else mirror[0], firing=steering,
+        on = self._transmitting  # elements of weight 0 are left out (:meth:`_weighted`)
+        tx = element_factors(points, normals, edges, g.tx_positions[on],
+                             self.transducer.source_amplitude * np.exp(1j * g.tx_phase_offsets[on]),
+                             departure=None if mirror is None else mirror[0],
+                             firing=None if steering is None else steering[:, on],
                              mirror=mirror, impedance=self._z2[mats] if physical else None,
                              z_air=self._z_air, **common)
         rx = element_factors(points, normals, edges, g.rx_positions, np.exp(1j * g.rx_phase_offsets),
@@ -501,15 +506,13 @@ class AcousticTracer(RayCaster):
                              patches.weight.astype(complex), visible, patches.roughness)
 
     def _weighted(self, paths: HitPaths | Subbands) -> HitPaths | Subbands:
-        """``paths`` with transmit element i's factors times ``transmit_weights[i]``, the
-        elements of weight 0 left out."""
+        """``paths`` (of the transmitting elements alone, :meth:`_scatter_at`) with transmit
+        element i's factors times ``transmit_weights[i]``."""
         if isinstance(paths, Subbands):
             return paths.each(self._weighted)
-        on = np.flatnonzero(self._weights)
-        w = self._weights[on]
-        return replace(paths, tx_delay=paths.tx_delay[:, on], tx_cos=paths.tx_cos[:, on],
-                       tx_sinc=paths.tx_sinc[:, on], tx_specular=paths.tx_specular[:, on] * w,
-                       tx_diffuse=paths.tx_diffuse[:, on] * w)
+        w = self._weights[self._transmitting]
+        return replace(paths, tx_specular=paths.tx_specular * w,
+                       tx_diffuse=paths.tx_diffuse * w)
 
     def _roughness(self, mats, beam, rngs) -> np.ndarray:
         """(H,) unit phasors of the diffuse parts of hits of beams ``beam`` (H,) (ordered by
