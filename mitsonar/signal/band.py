@@ -211,16 +211,17 @@ class Band:
         """Rows that :meth:`to_analytic` inverse-transforms at a time (``TRANSFORM_BYTES``)."""
         return max(1, TRANSFORM_BYTES // (16 * self.n_grid))
 
-    def to_analytic(self, spectrum: np.ndarray) -> np.ndarray:
+    def to_analytic(self, spectrum: np.ndarray, dtype=complex) -> np.ndarray:
         """Analytic recording (..., n_samples), demodulated by :attr:`carrier`, of analytic
         spectra on the band (..., nb): a(t) exp(-j 2 pi carrier t) at the sample times; an
-        inverse FFT per row, :attr:`transform_rows` rows at a time."""
+        inverse FFT per row, :attr:`transform_rows` rows at a time, in the precision of
+        ``dtype`` (complex or np.complex64: half the transform's work, ~6e-8 relative)."""
         rows = spectrum.reshape(-1, spectrum.shape[-1])
-        out = np.empty((len(rows), self.n_samples), dtype=complex)
+        out = np.empty((len(rows), self.n_samples), dtype=dtype)
         step = self.transform_rows
         for first in range(0, len(rows), step):  # a few MiB at a time: in the cache
             chunk = rows[first: first + step] * self._output_scale
-            full = np.zeros((len(chunk), self.n_grid), dtype=complex)
+            full = np.zeros((len(chunk), self.n_grid), dtype=dtype)
             for grid, band in self._output_runs:  # slices: several times faster than indices
                 full[:, grid] = chunk[:, band]
             out[first: first + step] = sfft.ifft(full, axis=-1, workers=-1,

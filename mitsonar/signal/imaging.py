@@ -339,7 +339,7 @@ class ReceiveImager:
         """(N_rx, N) [Pa], complex64: each receive channel matched-filtered and demodulated at
         the band's carrier (analytic, on the image's scale: one plane wave gives every channel
         the magnitude of its beam), of channel spectra on the band (N_rx, nb)."""
-        return self.band.to_analytic(spectra * self._filter).astype(np.complex64)
+        return self.band.to_analytic(spectra * self._filter, dtype=np.complex64)
 
     def points(self, image: np.ndarray, channels: np.ndarray, start_time: float,
                direct_image: np.ndarray | None = None) -> ImagePoints:
