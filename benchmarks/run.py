@@ -24,6 +24,7 @@ import numpy as np
 import mitsonar
 from mitsonar.evaluation.fidelity import fidelity
 from mitsonar.physics.transducer import Transducer
+from mitsonar.recon.repeated import RepeatedMapSpec, scan_repeated
 from mitsonar.scene.rays import rays
 from mitsonar.sensors.camera import CameraModel, CameraRenderer
 from mitsonar.sensors.imaging_sonar import ImagingSonar
@@ -215,6 +216,25 @@ def main(argv=None) -> int:
         report_depths(shared_depth, shared_full.frame(schedule, lambda t: pose).depth,
                       "full-rate reference, shared hits")
         report_depths(shared_depth, per_beam, "per-beam trace (shared hits)")
+
+    # Whole trajectories: repeated mode's frames (OFDM frame + camera image, as `mitsonar map
+    # repeated` fires them) along the scene's trajectory, simulated by one process and by two
+    # worker processes (mitsonar.parallel: the same frames; the workers' start included).
+    trajectory = mitsonar.Trajectory.from_scene(args.scene)
+    count = 4 if args.quick else 16
+    print(f"repeated-mode frames along the trajectory ({count} frames from its start, "
+          f"1 process vs 2 workers, the workers' start included):")
+    for preset in ("paper", "default"):
+        driven = mitsonar.Sonar(sonar.scene, mitsonar.SonarConfig.preset(preset))
+        spec = RepeatedMapSpec(frames=count)
+        rates = {}
+        for workers in (1, 2):
+            t0 = time.perf_counter()
+            scan_repeated(driven, trajectory, spec, workers=workers)
+            rates[workers] = count / (time.perf_counter() - t0)
+            report(f"  {preset} preset, {workers} process{'es' if workers > 1 else ''}",
+                   rates[workers], "frames/s", 1 / REAL_FRAME_S, "real sensor", goal=FRAME_GOAL)
+        print(f"{'  ' + preset + ' preset: 2 workers / 1':<34s} {rates[2] / rates[1]:12.3g} x")
 
     # Echo modes (issue 28): what keeping every echo, every range cell or a cone image per beam
     # costs per detection-only frame beside the first echo; and one single-ping receive image.

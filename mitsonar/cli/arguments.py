@@ -163,6 +163,27 @@ def add_echoes_argument(parser, default: str, what: str) -> None:
                              f"(default {default})")
 
 
+def positive_count(text: str) -> int:
+    """argparse type of a count that must be a whole number >= 1."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a whole number >= 1, got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be >= 1, got {value}")
+    return value
+
+
+def add_workers_argument(parser, what: str) -> None:
+    """The ``--workers N`` option: ``what`` simulated by N local processes
+    (:mod:`mitsonar.parallel`), the same results whatever N."""
+    parser.add_argument("--workers", type=positive_count, default=1,
+                        help=f"local worker processes that simulate {what} at once, each loading "
+                             "the scene (the same results whatever the number; a frame's receive "
+                             "chain uses one core, so two workers on two cores run about twice "
+                             "as fast with the paper preset) (default 1)")
+
+
 def add_record_argument(parser) -> None:
     """The ``--record FILE.mcap`` option of the map commands."""
     parser.add_argument("--record", type=output_file, default=None, metavar="FILE.mcap",

@@ -7,8 +7,9 @@ from pathlib import Path
 import numpy as np
 
 from mitsonar.cli.arguments import (add_drive_arguments, add_echoes_argument,
-                                    add_preset_argument, add_scene_argument, command_group,
-                                    drive_config, output_directory, output_file)
+                                    add_preset_argument, add_scene_argument,
+                                    add_workers_argument, command_group, drive_config,
+                                    output_directory, output_file)
 from mitsonar.data.dataset import SCANS, DatasetSpec, open_dataset, render_dataset
 
 
@@ -40,7 +41,7 @@ def add_cli(subparsers) -> None:
                         "('beams', --step, --echoes) or one single-ping receive image ('image', "
                         "every point of it with its attributes) (default: beams)")
     add_drive_arguments(r, "with --scan image, the most points per image: docs/imaging.md")
-    r.add_argument("--workers", type=int, default=1, help="local worker processes (default 1)")
+    add_workers_argument(r, "the samples")
     r.add_argument("--scheduler", default=None,
                    help="Dask scheduler address, or 'local' for a Dask LocalCluster of --workers "
                         "(default: none, local processes)")

@@ -8,8 +8,9 @@ import numpy as np
 
 from mitsonar.cli.arguments import (add_drive_arguments, add_echoes_argument,
                                     add_output_argument, add_preset_argument, add_record_argument,
-                                    add_scene_argument, add_trajectory_argument, command_group,
-                                    drive_config, trajectory_from_args)
+                                    add_scene_argument, add_trajectory_argument,
+                                    add_workers_argument, command_group, drive_config,
+                                    trajectory_from_args)
 from mitsonar.recon.repeated import REGISTRATIONS, SCANS, RepeatedMapSpec, map_repeated
 from mitsonar.recon.surfels import (SurfelSettings, map_surfels, map_surfels_along,
                                     save_surfel_map, summary)
@@ -51,6 +52,7 @@ def add_cli(subparsers) -> None:
     add_echoes_argument(r, RepeatedMapSpec.echoes, "that become points")
     r.add_argument("--seed", type=int, default=0,
                    help="seed of the noise and the diffuse phases (default 0)")
+    add_workers_argument(r, "the frames")
     add_record_argument(r)
     r.set_defaults(func=_run_repeated)
     _add_surfel(sub)
@@ -102,7 +104,7 @@ def _run_repeated(args) -> int:
             bar.total = total
             bar.update()
 
-        voxels, positions, frames = map_repeated(sonar, trajectory, spec, step)
+        voxels, positions, frames = map_repeated(sonar, trajectory, spec, step, args.workers)
     save_voxel_ply(args.out / "voxel_map.ply", voxels)
     save_voxel_figure(args.out / "voxel_map.png", voxels, positions,
                       title=f"{args.scene.parent.name}: {len(frames)} {label}")

@@ -35,11 +35,13 @@ cross-talk of an OFDM cycle).
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from functools import partial
 
 import numpy as np
 
 from mitsonar.sensors.camera import CameraModel, CameraRenderer
 from mitsonar.frames import Pose
+from mitsonar.parallel import ordered_map
 from mitsonar.physics.array import dither_offsets
 from mitsonar.sensors.imaging_sonar import ImagingSonar, TransmitSettings
 from mitsonar.sensors.ofdm_sonar import Frame, OfdmSonar, pose_along
@@ -172,61 +174,85 @@ class ScannedFrame:
     image_tables: tuple = ()
 
 
+class _RepeatedFrames:
+    """What fires the frames of :func:`scan_repeated` (its sonar, schedules, camera): frame k
+    is a pure function of k, the spec and the scene (seeds ``spec.seed + k``)."""
+
+    def __init__(self, sonar: Sonar, trajectory: Trajectory, spec: RepeatedMapSpec):
+        self.spec = spec
+        self.pose_at = pose_along(trajectory)
+        if spec.scan == "ofdm":
+            detection = spec.detection(sonar.config.detection)
+            self.ofdm = OfdmSonar(Sonar(sonar.scene, replace(sonar.config, detection=detection)),
+                                  shared_hits=spec.shared_hits)
+            geometry = sonar.config.geometry
+            schedule = self.ofdm.schedule(geometry.fov_grid(spec.scan_step))
+            shifted = [geometry.fov_grid(spec.scan_step, offset)
+                       for offset in dither_offsets(spec.scan_step, spec.dither)]
+            # a shifted grid keeps its beams' firing order and codes (tuned to the grid's spacing)
+            self.schedules = [replace(schedule, directions=d) for d in shifted]
+            self.duration = schedule.frame_duration
+        else:
+            self.imaging = ImagingSonar(sonar, transmit=spec.transmit)
+            self.per_frame = int(np.ceil(IMAGE_FRAME / self.imaging.cycle_time - 1e-9))
+            self.duration = self.per_frame * self.imaging.cycle_time
+        self.interval = self.duration if spec.interval is None else spec.interval
+        if self.interval < self.duration:
+            raise ValueError(f"RepeatedMapSpec.interval [s] must be at least the frame duration "
+                             f"({self.duration:.4f} s), got {spec.interval}")
+        self.camera = CameraRenderer(sonar.scene,
+                                     CameraModel(spp=spec.spp).at_resolution(spec.image_width))
+
+    @classmethod
+    def load(cls, scene_path, config, trajectory: Trajectory, spec: RepeatedMapSpec):
+        """In a worker process: the sonar made anew from its scene file and configuration."""
+        return cls(Sonar(scene_path, config), trajectory, spec)
+
+    def frame(self, k: int) -> ScannedFrame:
+        """Frame k, fired at k x ``interval`` on the trajectory's clock, and its camera image."""
+        spec, pose_at = self.spec, self.pose_at
+        start = k * self.interval
+        pose = pose_at(start)
+        image = self.camera.render(pose, seed=spec.seed + k).rgb
+        if spec.scan == "ofdm":
+            frame = self.ofdm.frame(self.schedules[k % len(self.schedules)], pose_at,
+                                    start_time=start, seed=spec.seed + k)
+            return ScannedFrame(frame.echo_table.point, frame.echo_world_from_sensor, start,
+                                image, pose, frame=frame)
+        cycle = self.imaging.cycle_time
+        times = tuple(start + i * cycle for i in range(self.per_frame))
+        images = tuple(self.imaging.image(pose_at(t), seed=beam_seed(spec.seed + k, i))
+                       for i, t in enumerate(times))
+        poses = [np.broadcast_to(im.pose.matrix(), (len(im), 4, 4)) for im in images]
+        return ScannedFrame(np.concatenate([im.points_sensor for im in images]),
+                            np.concatenate(poses), start, image, pose, images=images,
+                            image_times=times,
+                            image_tables=tuple(self.imaging.echo_table(im) for im in images))
+
+
+def _frame(frames: _RepeatedFrames, k: int) -> ScannedFrame:
+    return frames.frame(k)
+
+
 def scan_repeated(sonar: Sonar, trajectory: Trajectory, spec: RepeatedMapSpec = RepeatedMapSpec(),
-                  progress=None) -> tuple[list[ScannedFrame], CameraModel]:
+                  progress=None, workers: int = 1) -> tuple[list[ScannedFrame], CameraModel]:
     """Fire OFDM frames (or groups of images, ``spec.scan``) along the trajectory,
     ``spec.interval`` apart (default: back to back), with a camera image each: ``spec.frames``
     of them, or every frame that starts within the first ``spec.duration`` [s] (default: the
-    whole trajectory). ``progress`` is called with (frame index, number of frames) after each."""
-    pose_at = pose_along(trajectory)
-    if spec.scan == "ofdm":
-        detection = spec.detection(sonar.config.detection)
-        ofdm = OfdmSonar(Sonar(sonar.scene, replace(sonar.config, detection=detection)),
-                         shared_hits=spec.shared_hits)
-        geometry = sonar.config.geometry
-        schedule = ofdm.schedule(geometry.fov_grid(spec.scan_step))
-        shifted = [geometry.fov_grid(spec.scan_step, offset)
-                   for offset in dither_offsets(spec.scan_step, spec.dither)]
-        # a shifted grid keeps its beams' firing order and codes (tuned to the grid's spacing)
-        schedules = [replace(schedule, directions=d) for d in shifted]
-        duration = schedule.frame_duration
-
-        def fire(start: float, k: int):
-            frame = ofdm.frame(schedules[k % len(schedules)], pose_at, start_time=start,
-                               seed=spec.seed + k)
-            return dict(points=frame.echo_table.point,
-                        world_from_sensor=frame.echo_world_from_sensor, frame=frame)
-    else:
-        imaging = ImagingSonar(sonar, transmit=spec.transmit)
-        cycle = imaging.cycle_time
-        per_frame = int(np.ceil(IMAGE_FRAME / cycle - 1e-9))
-        duration = per_frame * cycle
-
-        def fire(start: float, k: int):
-            times = tuple(start + i * cycle for i in range(per_frame))
-            images = tuple(imaging.image(pose_at(t), seed=beam_seed(spec.seed + k, i))
-                           for i, t in enumerate(times))
-            poses = [np.broadcast_to(im.pose.matrix(), (len(im), 4, 4)) for im in images]
-            return dict(points=np.concatenate([im.points_sensor for im in images]),
-                        world_from_sensor=np.concatenate(poses), images=images,
-                        image_times=times,
-                        image_tables=tuple(imaging.echo_table(im) for im in images))
-    interval = duration if spec.interval is None else spec.interval
-    if interval < duration:
-        raise ValueError(f"RepeatedMapSpec.interval [s] must be at least the frame duration "
-                         f"({duration:.4f} s), got {interval}")
+    whole trajectory). ``progress`` is called with (frame index, number of frames) after each.
+    ``workers`` > 1: the frames are simulated by that many processes, each loading the scene
+    from its file (:func:`~mitsonar.parallel.ordered_map`; the same frames)."""
+    frames = _RepeatedFrames(sonar, trajectory, spec)
     count = spec.frames if spec.frames is not None else \
-        max(int(np.floor(trajectory.driven(spec.duration) / interval + 1e-9)), 1)
-    camera = CameraRenderer(sonar.scene, CameraModel(spp=spec.spp).at_resolution(spec.image_width))
+        max(int(np.floor(trajectory.driven(spec.duration) / frames.interval + 1e-9)), 1)
+    make = (lambda: frames) if workers <= 1 else \
+        partial(_RepeatedFrames.load, sonar.scene.path, sonar.config, trajectory, spec)
     scanned = []
-    for k in range(count):  # frames follow each other in time
-        start = k * interval
-        pose = pose_at(start)
-        scanned.append(ScannedFrame(start_time=start, image=camera.render(
-            pose, seed=spec.seed + k).rgb, pose=pose, **fire(start, k)))
+    for k, scanned_frame in enumerate(ordered_map(make, _frame, range(count), workers)):
+        scanned.append(scanned_frame)  # frames follow each other in time
         if progress is not None:
             progress(k, count)
-    return scanned, camera.model
+    return scanned, frames.camera.model
 
 
 def build_voxel_map(scanned, camera_model: CameraModel, spec: RepeatedMapSpec = RepeatedMapSpec()):
@@ -240,8 +266,9 @@ def build_voxel_map(scanned, camera_model: CameraModel, spec: RepeatedMapSpec = 
 
 
 def map_repeated(sonar: Sonar, trajectory: Trajectory, spec: RepeatedMapSpec = RepeatedMapSpec(),
-                 progress=None):
-    """Build a coloured voxel map; returns (VoxelCloud, sensor positions (F, 3), scanned frames)."""
-    scanned, camera_model = scan_repeated(sonar, trajectory, spec, progress)
+                 progress=None, workers: int = 1):
+    """Build a coloured voxel map; returns (VoxelCloud, sensor positions (F, 3), scanned frames)
+    (``workers``: :func:`scan_repeated`)."""
+    scanned, camera_model = scan_repeated(sonar, trajectory, spec, progress, workers)
     positions = np.array([s.pose.translation for s in scanned])
     return build_voxel_map(scanned, camera_model, spec), positions, scanned
