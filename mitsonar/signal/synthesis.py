@@ -243,13 +243,14 @@ class EchoSynthesizer:
         paths = HitPaths.concatenate(sets)
         owner = np.repeat(np.arange(len(sets)), [len(p.tx_delay) for p in sets])
         earliest, latest = ((t - band.start_time) * fs for t in paths.arrivals)
-        rows = np.flatnonzero((latest > -hw) & (earliest < band.n_samples + hw))  # a pair in
+        keep = np.flatnonzero((latest > -hw) & (earliest < band.n_samples + hw))  # a pair in
         if by_arrival:
-            rows = rows[np.argsort(earliest[rows], kind="stable")]
-        paths, owner, earliest, latest = paths.select(rows), owner[rows], earliest[rows], \
-            latest[rows]
+            keep = keep[np.argsort(earliest[keep], kind="stable")]
+        if not by_arrival and len(keep) == len(owner):
+            keep = slice(None)  # every patch in its order: views, not copies, of the factors
+        owner, earliest, latest = owner[keep], earliest[keep], latest[keep]
         peak, first, last = np.zeros((3, len(sets))) + [[0.0], [np.inf], [-np.inf]]
-        np.maximum.at(peak, owner, paths.gain_bound())
+        np.maximum.at(peak, owner, paths.gain_bound()[keep])
         np.minimum.at(first, owner, earliest)
         np.maximum.at(last, owner, latest)
         scale = fixed_point_scale(peak)
@@ -259,17 +260,20 @@ class EchoSynthesizer:
                                                  band.n_samples + hw))
         size = np.where(gridded, n_rows * width, 0)
         launch = (np.cumsum(size) - size) // PAIR_BATCH_SAMPLES
-        tx_u = (paths.tx_delay - band.start_time) * fs  # a pair's position: tx_u + rx_u
-        rx_u = paths.rx_delay * fs
-        paths = paths.scaled(self._demodulation(tx_u),
-                             scale[owner][:, None] * self._demodulation(rx_u))
+        tx_u = (paths.tx_delay[keep] - band.start_time) * fs  # a pair's position: tx_u + rx_u
+        rx_u = paths.rx_delay[keep] * fs
+        tx_factor = self._demodulation(tx_u)
+        rx_factor = scale[owner][:, None] * self._demodulation(rx_u)
         for group in np.unique(launch[gridded]):  # launches (one for small sets)
             members = np.flatnonzero(gridded & (launch == group))
             start = np.zeros(len(sets), np.int64)
             start[members] = np.cumsum(size[members]) - size[members]
             mine = np.flatnonzero(np.isin(owner, members))
-            part = paths if mine.size == owner.size else paths.select(mine)
-            tx, rx = part.kernel_factors()
+            if mine.size < owner.size:
+                tx, rx = paths.kernel_factors(np.arange(len(paths.tx_delay))[keep][mine],
+                                              tx_factor[mine], rx_factor[mine])
+            else:
+                tx, rx = paths.kernel_factors(keep, tx_factor, rx_factor)
             total = int(size[members].sum())
             thread = to_jit(UInt32, np.arange(mine.size * n_rx, dtype=np.uint32))
             whose = owner[mine]

@@ -150,14 +150,6 @@ class HitPaths:
     def channel(self) -> np.ndarray:
         return self.paths.channel
 
-    def scaled(self, tx_factor, rx_factor) -> "HitPaths":
-        """The same paths with every pair's gain multiplied by tx_factor[h, i] rx_factor[h, j]
-        (complex (H, N_tx) and (H, N_rx) arrays, e.g. demodulating phasors)."""
-        return replace(self, tx_specular=self.tx_specular * tx_factor,
-                       tx_diffuse=self.tx_diffuse * tx_factor,
-                       rx_specular=self.rx_specular * rx_factor,
-                       rx_diffuse=self.rx_diffuse * rx_factor)
-
     def gain_bound(self) -> np.ndarray:
         """(H,) bound on each patch's pair gains |gain[h, i, j]| [Pa] (|sinc| <= 1)."""
         peak = lambda a: np.abs(a).max(axis=1, initial=0.0)  # noqa: E731
@@ -170,18 +162,28 @@ class HitPaths:
         transmit element (its firing time)."""
         return replace(self, tx_delay=self.tx_delay + seconds)
 
-    def kernel_factors(self) -> tuple[list, list]:
-        """The gain factors as single-precision Dr.Jit arrays for :func:`pair_gain`: 7 transmit
-        factors (H x N_tx,) (specular re, im, diffuse re, im, cosine, sinc arguments) and 7
-        receive factors (H x N_rx,) with the patch's own factors folded in."""
+    def kernel_factors(self, rows=slice(None), tx_factor=None,
+                       rx_factor=None) -> tuple[list, list]:
+        """The gain factors of patches ``rows`` (an index or slice; default all) as
+        single-precision Dr.Jit arrays for :func:`pair_gain`: 7 transmit factors (H x N_tx,)
+        (specular re, im, diffuse re, im, cosine, sinc arguments) and 7 receive factors
+        (H x N_rx,) with the patch's own factors folded in; every pair's gain times
+        ``tx_factor[h, i] rx_factor[h, j]`` where given (complex (H, N_tx) and (H, N_rx) arrays
+        for those rows, e.g. demodulating phasors). No copy of the other factors is made."""
         Float32 = backend().Float32
-        rx_s = self.rx_specular * self.specular[:, None]
-        rx_d = self.rx_diffuse * self.diffuse[:, None]
-        tx = [to_jit(Float32, x) for x in (
-            self.tx_specular.real, self.tx_specular.imag, self.tx_diffuse.real,
-            self.tx_diffuse.imag, self.tx_cos, self.tx_sinc[..., 0], self.tx_sinc[..., 1])]
+        tx_s, tx_d, rx_s, rx_d = (getattr(self, name)[rows] for name in (
+            "tx_specular", "tx_diffuse", "rx_specular", "rx_diffuse"))
+        if tx_factor is not None:
+            tx_s, tx_d = tx_s * tx_factor, tx_d * tx_factor
+        if rx_factor is not None:
+            rx_s, rx_d = rx_s * rx_factor, rx_d * rx_factor
+        rx_s = rx_s * self.specular[rows, None]
+        rx_d = rx_d * self.diffuse[rows, None]
+        tx_sinc, rx_sinc = self.tx_sinc[rows], self.rx_sinc[rows]
+        tx = [to_jit(Float32, x) for x in (tx_s.real, tx_s.imag, tx_d.real, tx_d.imag,
+                                           self.tx_cos[rows], tx_sinc[..., 0], tx_sinc[..., 1])]
         rx = [to_jit(Float32, x) for x in (rx_s.real, rx_s.imag, rx_d.real, rx_d.imag,
-                                           self.rx_cos, self.rx_sinc[..., 0], self.rx_sinc[..., 1])]
+                                           self.rx_cos[rows], rx_sinc[..., 0], rx_sinc[..., 1])]
         return tx, rx
 
     def narrowband(self, frequency: float) -> Paths:
