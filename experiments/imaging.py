@@ -304,11 +304,12 @@ def simulate(scan: str, sonar, trajectory, settings: RunSettings, progress, path
     after each with (done, total)."""
     frames = ScanFrames(scan, sonar, trajectory, settings)
     chosen = np.arange(0, len(frames.times), settings.stride)
-    make = (lambda: frames) if settings.workers <= 1 else \
+    workers = min(settings.workers, len(chosen))
+    make = (lambda: frames) if workers <= 1 else \
         partial(ScanFrames.load, scan, path, preset, trajectory, settings)
     start = time.perf_counter()
     clouds = []
-    for done, cloud in enumerate(ordered_map(make, _frame, chosen, settings.workers)):
+    for done, cloud in enumerate(ordered_map(make, _frame, chosen, workers)):
         clouds.append(cloud)  # frames follow each other in time
         progress(done + 1, len(chosen))
     points = {name: [c[name] for c in clouds] for name in clouds[0]}

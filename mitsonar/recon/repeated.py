@@ -245,6 +245,7 @@ def scan_repeated(sonar: Sonar, trajectory: Trajectory, spec: RepeatedMapSpec = 
     frames = _RepeatedFrames(sonar, trajectory, spec)
     count = spec.frames if spec.frames is not None else \
         max(int(np.floor(trajectory.driven(spec.duration) / frames.interval + 1e-9)), 1)
+    workers = min(workers, count)
     make = (lambda: frames) if workers <= 1 else \
         partial(_RepeatedFrames.load, sonar.scene.path, sonar.config, trajectory, spec)
     scanned = []
