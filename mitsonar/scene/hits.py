@@ -104,20 +104,23 @@ class SceneHits:
         table = self.shape_of_registry
         shape = np.where(np.isfinite(t) & (reg < len(table)), table[np.minimum(reg, len(table) - 1)],
                          -1)
-        t = np.where(shape >= 0, t, np.inf)
         on = shape >= 0
-        point = np.zeros_like(d)
-        point[on] = o[on] + t[on, None] * d[on]
-        normal = np.zeros_like(d)
+        t = np.where(on, t, np.inf)
+        point = o + np.where(on, t, 0.0)[:, None] * d  # (whole arrays: faster than masked rows)
+        point[~on] = 0.0
         if not self.tabulated:
-            normal[on] = np.asarray(hit.n, dtype=float).T[on]
+            normal = np.asarray(hit.n, dtype=float).T.copy()
+            normal[~on] = 0.0
             return t, point, normal, shape
-        rows = np.flatnonzero(on)
-        k = shape[rows]
-        curved = self._analytic[k]
-        flat = rows[~curved]
-        normal[flat] = self._face_normals[self._face_offset[k[~curved]] + primitive[flat]]
-        quadric, k = rows[curved], k[curved]
+        k = np.maximum(shape, 0)
+        flat = on & ~self._analytic[k]
+        if len(self._face_normals):
+            normal = self._face_normals[np.where(flat, self._face_offset[k] + primitive, 0)]
+            normal[~flat] = 0.0
+        else:
+            normal = np.zeros_like(d)
+        quadric = np.flatnonzero(on & self._analytic[k])
+        k = shape[quadric]
         if len(quadric):
             local = np.einsum("hij,hj->hi", self._inverse[k], point[quadric] - self._origin[k])
             local = local * self._local[k, 0] + self._local[k, 1]
