@@ -107,8 +107,13 @@ def test_truncated_file_is_reported_by_name(reference, tmp_path):
 
 @pytest.mark.slow
 def test_local_processes_and_dask_cluster_give_the_same_dataset(reference, tmp_path):
+    """... and the Dask cluster leaves the caller's environment as it was (its nannies set
+    ``OMP_NUM_THREADS`` and ``MALLOC_TRIM_THRESHOLD_`` there for their workers, which every
+    process started later inherited)."""
     assert _same_tree(reference, render_dataset(SPEC, tmp_path / "pool", workers=2))
+    before = dict(os.environ)
     assert _same_tree(reference, render_dataset(SPEC, tmp_path / "dask", workers=2, scheduler="local"))
+    assert dict(os.environ) == before
 
 
 def test_image_samples_hold_one_single_ping_image_and_export(tmp_path):
