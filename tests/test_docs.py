@@ -17,7 +17,7 @@ Not run here:
 * the experiment scripts: ``tests/test_experiments.py`` runs each in its quick setting
   (checked here); their documented options are parsed here.
 
-The benchmark's quick form (about 45 s) runs in its own test, marked slow. Beside the
+The benchmark's quick form (about 65 s) runs in its own test, marked slow. Beside the
 commands: the Python blocks run (after the commands, which write the dataset they read), the
 TOML blocks load as a ``SonarConfig``, the XML blocks as materials of a scene, links to pages,
 anchors and images resolve, and the options named in the README's command table exist.
