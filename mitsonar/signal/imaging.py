@@ -68,7 +68,11 @@ Points. A cell (direction d, sample k) inside the field of view is a point when
    arrivals at once: the strongest one's share of their power). On receiver noise alone a cell
    at s times the RMS noise envelope has coherence about s^2 / N_rx, so the rule asks noise for
    an SNR of sqrt(min_coherence N_rx) (3.2 with the defaults): below ``detection_snr``, it
-   leaves the design false-alarm rate unchanged.
+   leaves the design false-alarm rate unchanged. With ``coherence_bands`` n > 1 the factor is
+   read in n half-overlapping Hann sub-bands of the drive's band and averaged: behind a wide
+   sweep the room's echoes carry most of their power at its low end (20-80 kHz in the office:
+   85 % below 30 kHz), where the receive beam is widest and echoes arriving together mix most,
+   so the whole band's factor is mostly that beam's; in sub-bands each part counts alike.
 
    Measured on the shipped rooms (docs/imaging.md): a ping's recording holds a few hundred
    range peaks that are the peak of their main lobe, but at nearly every instant the channels
@@ -137,6 +141,11 @@ class ImagingSettings:
             point must exceed.
         min_coherence: fraction in [0, 1] of the receive channels' power at a point's instant
             that one plane wave from its direction must explain (module docstring, rule 5).
+        coherence_bands: sub-bands the coherence is read in and averaged over (rule 5): 1
+            reads it on the whole band; n > 1 splits the drive's band (where the system
+            spectrum is within 6 dB of its peak) into n half-overlapping Hann windows, so every
+            part of a wide sweep counts alike instead of the low end that carries most of the
+            echoes' power, where the receive beam is widest.
     """
 
     step: float = np.radians(2.0)
@@ -145,6 +154,7 @@ class ImagingSettings:
     side_lobe_margin: float = 2.0
     clutter_margin: float = 3.0
     min_coherence: float = 0.4
+    coherence_bands: int = 1
 
     def __post_init__(self):
         check_range("ImagingSettings.step [rad]", self.step, 1e-3, np.radians(10))
@@ -156,6 +166,9 @@ class ImagingSettings:
         if not 0 <= self.min_coherence <= 1:
             raise ValueError(f"ImagingSettings.min_coherence must be in [0, 1], "
                              f"got {self.min_coherence}")
+        if not (int(self.coherence_bands) == self.coherence_bands and self.coherence_bands >= 1):
+            raise ValueError(f"ImagingSettings.coherence_bands must be a whole number >= 1, "
+                             f"got {self.coherence_bands}")
 
 
 @dataclass(frozen=True)
@@ -187,6 +200,20 @@ class ImagePoints:
 
     def __len__(self) -> int:
         return len(self.points)
+
+
+def coherence_windows(frequencies: np.ndarray, spectrum: np.ndarray, bands: int) -> np.ndarray:
+    """(bands, nb) weights of the coherence's sub-bands at ``frequencies`` (nb,) [Hz]: ones for
+    one band; else ``bands`` Hann windows spaced w apart, each 2 w wide, over the extent where
+    ``spectrum`` (nb,) (magnitudes) is within 6 dB of its peak, w = extent / bands (they sum
+    to one between the outer windows' centres)."""
+    if bands == 1:
+        return np.ones((1, len(frequencies)))
+    inside = frequencies[spectrum >= 0.5 * spectrum.max()]
+    low, spacing = inside.min(), (inside.max() - inside.min()) / bands
+    centres = low + (np.arange(bands) + 0.5) * spacing
+    x = (frequencies[None] - centres[:, None]) / (2 * spacing)
+    return np.where(np.abs(x) < 0.5, np.cos(np.pi * x) ** 2, 0.0)
 
 
 def _range_side_lobes(envelope: np.ndarray) -> np.ndarray:
@@ -271,6 +298,14 @@ class ReceiveImager:
         #: RMS of the image of receiver noise alone [Pa].
         self.noise_level = processor.noise_envelope_rms()
         self._filter = processor.matched_filter()[0]
+        #: (n, nb) the matched filter in each of the coherence's sub-bands (rule 5), and (n,)
+        #: the frequencies [Hz] their channels are demodulated at (their centres; one band: the
+        #: band's carrier, as the receiver's looks).
+        windows = coherence_windows(band.frequencies, np.abs(band.system_spectrum()[band.bins]),
+                                    settings.coherence_bands)
+        self._coherence_filters = self._filter * windows
+        self._coherence_carriers = np.array([band.carrier]) if len(windows) == 1 else \
+            windows @ band.frequencies / windows.sum(axis=1)
         self.threshold = max(settings.detection_snr * self.noise_level, settings.detection_floor)
         if self.threshold <= 0:
             raise ValueError("imaging without receiver noise needs ImagingSettings."
@@ -336,10 +371,17 @@ class ReceiveImager:
         return self.envelopes(spectra), self.channel_signals(spectra)
 
     def channel_signals(self, spectra: np.ndarray) -> np.ndarray:
-        """(N_rx, N) [Pa], complex64: each receive channel matched-filtered and demodulated at
+        """(n, N_rx, N) [Pa], complex64: each receive channel matched-filtered in each of the
+        coherence's n sub-bands (``coherence_bands``; n = 1: the whole band) and demodulated at
         the band's carrier (analytic, on the image's scale: one plane wave gives every channel
         the magnitude of its beam), of channel spectra on the band (N_rx, nb)."""
-        return self.band.to_analytic(spectra * self._filter, dtype=np.complex64)
+        band = self.band
+        channels = band.to_analytic(spectra[None] * self._coherence_filters[:, None],
+                                    dtype=np.complex64)
+        if len(channels) > 1:  # each sub-band about its centre: read between samples finely
+            channels *= band.demodulation(self._coherence_carriers, band.start_time,
+                                          band.n_samples)[:, None].astype(np.complex64)
+        return channels
 
     def points(self, image: np.ndarray, channels: np.ndarray, start_time: float,
                direct_image: np.ndarray | None = None) -> ImagePoints:
@@ -391,14 +433,18 @@ class ReceiveImager:
     def coherence(self, channels: np.ndarray, d: np.ndarray, k: np.ndarray) -> np.ndarray:
         """(P,) share of the channels' power at cells (grid direction d, sample k) that one plane
         wave from d explains (:meth:`Beamformer.coherence
-        <mitsonar.signal.beamforming.Beamformer.coherence>` of ``channels`` (N_rx, N) from
-        :meth:`channel_signals`: 1 for a single arrival; NaN where the channels are silent)."""
+        <mitsonar.signal.beamforming.Beamformer.coherence>` of ``channels`` (n, N_rx, N) from
+        :meth:`channel_signals`, the mean over its n sub-bands: 1 for a single arrival; NaN
+        where the channels are silent)."""
         count = len(d)
         if not count:
             return np.zeros(0)
-        return self._beamformer.coherence(channels[None], np.zeros(count, np.int64),
-                                          np.full(count, self.band.carrier), np.arange(count),
-                                          k.astype(float), self.directions[d])
+        bands = len(channels)  # every (sub-band, cell) a look of its own
+        return self._beamformer.coherence(
+            channels, np.repeat(np.arange(bands), count),
+            np.repeat(self._coherence_carriers, count), np.arange(bands * count),
+            np.tile(k.astype(float), bands), np.tile(self.directions[d], (bands, 1))
+        ).reshape(bands, count).mean(axis=0)
 
     def _peak_offsets(self, image: np.ndarray, d: np.ndarray, k: np.ndarray) -> np.ndarray:
         """(P, 2) offsets [grid steps] along u_x and u_y of the main-lobe peaks around grid
