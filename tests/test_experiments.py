@@ -272,8 +272,9 @@ def test_imaging_quick(tmp_path):
     images = [(p, "imaging") for p in presets] \
         + sorted({(p, scan) for (p, _), scan in chirped.items()})
     for preset, scan in images:  # the same images: a stricter trust threshold keeps a subset
-        points = [int(rows[preset, f"{scan}{t}"]["points"])
-                  for t in ("_trust_0.35", "", "_trust_0.5")]
+        default = experiment.TRUST.get(scan, (1, 0.4))[1]
+        names = {default: "", 0.35: "_trust_0.35", 0.5: "_trust_0.5"}
+        points = [int(rows[preset, f"{scan}{names[t]}"]["points"]) for t in sorted(names)]
         assert points == sorted(points, reverse=True), (preset, scan, points)
     assert (tmp_path / "imaging.png").stat().st_size > 30_000
     assert "completeness 5 cm" in (tmp_path / "imaging.md").read_text()
@@ -291,6 +292,12 @@ def test_imaging_trust_sets_keep_each_thresholds_points():
     assert set(got) == {"imaging", "imaging_trust_0.35", "imaging_trust_0.5"}
     for name, first in (("imaging_trust_0.35", 1), ("imaging", 3), ("imaging_trust_0.5", 5)):
         assert np.array_equal(got[name], points[first:]), name
+    # the sub-band trust rule's scan: its own default threshold (0.21) keeps every point here
+    scan = "imaging_chirp_wide_bands"
+    got = sets(SimpleNamespace(points_world=points, coherence=coherence), scan)
+    assert set(got) == {scan, f"{scan}_trust_0.35", f"{scan}_trust_0.5"}
+    assert np.array_equal(got[scan], points) and np.array_equal(got[f"{scan}_trust_0.5"],
+                                                               points[5:])
 
 
 def test_imaging_echo_sets_of_one_frame(scene_file):
