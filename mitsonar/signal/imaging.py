@@ -83,7 +83,7 @@ Points. A cell (direction d, sample k) inside the field of view is a point when
 
 Each point is placed as the receiver places a detection with its arrival direction: the
 direction refined between grid directions by a parabola through the image power along u_x and
-u_y, the time of arrival by a parabola through the envelope, and the point placed by
+u_y (with ``coherence_peak``: through the coherence of rule 5), the time of arrival by a parabola through the envelope, and the point placed by
 :func:`mitsonar.signal.placement.place` (near field and curvature corrected, the bistatic depth
 (7) solved from the receive origin o_R along the direction, with the baseline from o_R to the
 transmit centre, a point source): point = o_R + r u_a.
@@ -146,6 +146,9 @@ class ImagingSettings:
             spectrum is within 6 dB of its peak) into n half-overlapping Hann windows, so every
             part of a wide sweep counts alike instead of the low end that carries most of the
             echoes' power, where the receive beam is widest.
+        coherence_peak: place each point at the peak of the coherence (read as rule 5 reads it)
+            around its grid direction instead of the image's: the sub-bands' mean weighs the
+            narrower beams of a wide sweep's upper band as much as the widest.
     """
 
     step: float = np.radians(2.0)
@@ -155,6 +158,7 @@ class ImagingSettings:
     clutter_margin: float = 3.0
     min_coherence: float = 0.4
     coherence_bands: int = 1
+    coherence_peak: bool = False
 
     def __post_init__(self):
         check_range("ImagingSettings.step [rad]", self.step, 1e-3, np.radians(10))
@@ -422,7 +426,9 @@ class ReceiveImager:
         keep = coherence >= s.min_coherence
         d, k, value, coherence = d[keep], k[keep], value[keep], coherence[keep]
         passed["trusted"] = len(d)
-        apparent = self.directions[d, :2] + self.spacing * self._peak_offsets(image, d, k)
+        offsets = self._coherence_peak_offsets(channels, d, k) if s.coherence_peak \
+            else self._peak_offsets(image, d, k)
+        apparent = self.directions[d, :2] + self.spacing * offsets
         sample = k + vertex(image[d, k - 1], value, image[d, k + 1])
         length = self.c * (start_time + sample / fs)
         points, arrival = place(self.geometry, length, apparent, self._transmit_centre)
@@ -455,6 +461,19 @@ class ReceiveImager:
         near = np.log(np.maximum(np.stack([image[d + dy * n_x + dx, k] for dy in (-1, 0, 1)
                                            for dx in (-1, 0, 1)], axis=-1), 1e-30))
         return peak_offsets(near.astype(float).reshape(-1, 3, 3))
+
+    def _coherence_peak_offsets(self, channels: np.ndarray, d: np.ndarray,
+                                k: np.ndarray) -> np.ndarray:
+        """(P, 2) offsets [grid steps] of the coherence's peak (:meth:`coherence` of ``channels``)
+        around grid directions d at samples k: the vertex of the quadratic through its log at d
+        and its 8 neighbours, as :meth:`_peak_offsets` reads the image (a neighbour outside the
+        guard disc or where the channels are silent counts as 1e-6)."""
+        n_x = self.shape[1]
+        around = (d[None] + np.array([dy * n_x + dx for dy in (-1, 0, 1)
+                                      for dx in (-1, 0, 1)])[:, None]).ravel()  # (9 P,)
+        near = self.coherence(channels, around, np.tile(k, 9)).reshape(9, -1).T
+        near = np.where(self.valid[around].reshape(9, -1).T & np.isfinite(near), near, 1e-6)
+        return peak_offsets(np.log(np.maximum(near, 1e-6)).reshape(-1, 3, 3))
 
     def _side_lobe_levels(self, image: np.ndarray, row: np.ndarray, k: np.ndarray) -> np.ndarray:
         """(P,) the largest side-lobe level that a grid direction outside the main lobe of cell
