@@ -83,7 +83,8 @@ Points. A cell (direction d, sample k) inside the field of view is a point when
 
 Each point is placed as the receiver places a detection with its arrival direction: the
 direction refined between grid directions by a parabola through the image power along u_x and
-u_y (with ``coherence_peak``: through the coherence of rule 5), the time of arrival by a parabola through the envelope, and the point placed by
+u_y (with ``coherence_peak``: through the coherence of rule 5, within one grid step), the time
+of arrival by a parabola through the envelope, and the point placed by
 :func:`mitsonar.signal.placement.place` (near field and curvature corrected, the bistatic depth
 (7) solved from the receive origin o_R along the direction, with the baseline from o_R to the
 transmit centre, a point source): point = o_R + r u_a.
@@ -467,13 +468,14 @@ class ReceiveImager:
         """(P, 2) offsets [grid steps] of the coherence's peak (:meth:`coherence` of ``channels``)
         around grid directions d at samples k: the vertex of the quadratic through its log at d
         and its 8 neighbours, as :meth:`_peak_offsets` reads the image (a neighbour outside the
-        guard disc or where the channels are silent counts as 1e-6)."""
+        guard disc or where the channels are silent counts as 1e-6), within one step: d is the
+        image's peak, not always the coherence's, whose vertex may lie beyond the neighbours."""
         n_x = self.shape[1]
         around = (d[None] + np.array([dy * n_x + dx for dy in (-1, 0, 1)
                                       for dx in (-1, 0, 1)])[:, None]).ravel()  # (9 P,)
         near = self.coherence(channels, around, np.tile(k, 9)).reshape(9, -1).T
         near = np.where(self.valid[around].reshape(9, -1).T & np.isfinite(near), near, 1e-6)
-        return peak_offsets(np.log(np.maximum(near, 1e-6)).reshape(-1, 3, 3))
+        return np.clip(peak_offsets(np.log(np.maximum(near, 1e-6)).reshape(-1, 3, 3)), -1.0, 1.0)
 
     def _side_lobe_levels(self, image: np.ndarray, row: np.ndarray, k: np.ndarray) -> np.ndarray:
         """(P,) the largest side-lobe level that a grid direction outside the main lobe of cell

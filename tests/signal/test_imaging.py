@@ -362,3 +362,23 @@ def test_points_placed_at_the_coherence_peak(wide):
         assert np.all(error.min(axis=1) <= 5e-3), (peak, error.min(axis=1))
         placed[peak] = found.points[np.argsort(error.argmin(axis=1))]
     assert np.any(np.linalg.norm(placed[True] - placed[False], axis=1) > 1e-5)
+
+
+def test_the_coherence_peak_is_sought_within_one_grid_step(wide):
+    """The grid direction of a point is the image's peak, not always the coherence's: where the
+    coherence keeps rising beyond the 8 neighbours (a Gaussian in direction cosines whose peak
+    lies 3 steps away along u_x and 2 along u_y), the offsets stop at one step, and inside the
+    neighbourhood they find the peak (0.4 and -0.3 steps: within 1e-9)."""
+    imager = _wide_imager(wide, coherence_bands=3, coherence_peak=True)
+    d = imager._fov_rows[len(imager._fov_rows) // 2]
+    step = imager.spacing
+
+    def fake(channels, rows, k):  # the coherence as a function of direction alone
+        peak = imager.directions[d, :2] + step * np.asarray(fake.offset)
+        return np.exp(-np.sum((imager.directions[rows, :2] - peak) ** 2, axis=1) / (4 * step) ** 2)
+
+    imager.coherence = fake
+    for offset, expected in (((3.0, 2.0), (1.0, 1.0)), ((0.4, -0.3), (0.4, -0.3))):
+        fake.offset = offset
+        got = imager._coherence_peak_offsets(None, np.array([d]), np.array([10]))
+        np.testing.assert_allclose(got[0], expected, atol=1e-9)
