@@ -26,7 +26,8 @@ it was measured from (no odometry drift):
   pass it), sampled at 250 kHz, the element patterns, patch integrals and absorption traced at
   five frequency nodes 15 kHz apart (``TraceSettings.subbands``, docs/imaging.md).
 * imaging_chirp_wide_bands: the same, its trust rule read in three sub-bands of the sweep and
-  averaged (``ImagingSettings.coherence_bands``, :data:`TRUST`).
+  averaged, each point placed at that coherence's peak (``ImagingSettings.coherence_bands``,
+  ``coherence_peak``, :data:`TRUST`).
 * ofdm_trusted: the same OFDM frames (poses and seeds), every echo and range cell trusted by
   their arrival directions alone: no side-lobe check along the beam axis, one plane wave from
   the measured direction explaining ``min_coherence`` of the channels' power (the check's
@@ -137,8 +138,9 @@ SINGLE_SETS = {"ofdm_trusted": "cells", "ofdm_image": "image", "imaging": "image
 #: default: the same images, each threshold's points a strategy of its own,
 #: ``imaging_trust_<threshold>`` (points per second against accuracy along the trade-off).
 IMAGING_TRUST = (0.35, 0.5)
-#: The imaging scans' trust rule where not the default: (``coherence_bands``, its threshold).
-TRUST = {"imaging_chirp_wide_bands": (3, 0.21)}  # 0.21: as accurate as the whole band at 0.4
+#: The imaging scans' trust rule where not the default: (``coherence_bands``, its threshold),
+#: points placed at the coherence's peak (``ImagingSettings.coherence_peak``).
+TRUST = {"imaging_chirp_wide_bands": (3, 0.2)}
 #: Accuracy threshold [m] and completeness threshold [m].
 ACCURACY_THRESHOLD = 0.02
 COMPLETENESS_THRESHOLD = 0.05
@@ -276,7 +278,7 @@ class ScanFrames:
                 sonar = mitsonar.Sonar(sonar.scene, CHIRP_SCANS[scan][1](sonar.config))
             bands, default = TRUST.get(scan, (1, ImagingSettings.min_coherence))
             trust = ImagingSettings(min_coherence=min((default,) + IMAGING_TRUST),
-                                    coherence_bands=bands)
+                                    coherence_bands=bands, coherence_peak=bands > 1)
             self.imaging = ImagingSonar(sonar, trust, TransmitSettings(
                 rays_per_axis=settings.image_rays_per_axis))
             period = self.imaging.cycle_time

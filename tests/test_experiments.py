@@ -292,7 +292,7 @@ def test_imaging_trust_sets_keep_each_thresholds_points():
     assert set(got) == {"imaging", "imaging_trust_0.35", "imaging_trust_0.5"}
     for name, first in (("imaging_trust_0.35", 1), ("imaging", 3), ("imaging_trust_0.5", 5)):
         assert np.array_equal(got[name], points[first:]), name
-    # the sub-band trust rule's scan: its own default threshold (0.21) keeps every point here
+    # the sub-band trust rule's scan: its own default threshold (0.2) keeps every point here
     scan = "imaging_chirp_wide_bands"
     got = sets(SimpleNamespace(points_world=points, coherence=coherence), scan)
     assert set(got) == {scan, f"{scan}_trust_0.35", f"{scan}_trust_0.5"}
