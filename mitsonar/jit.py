@@ -19,7 +19,12 @@ compiles once and is then reused (and loaded from Dr.Jit's disk cache in later r
 Frozen kernels. :func:`freeze` wraps ``drjit.freeze`` so that Python's garbage collector does
 not run while a frozen function records or replays: a collection there frees Dr.Jit variables
 of unrelated objects in the middle of the recording, and the process aborted inside the frozen
-pair kernel with the collector running (an intermittent crash of the test suite).
+pair kernel with the collector running (an intermittent crash of the test suite). A recording
+that reaches Mitsuba objects through Dr.Jit's registry (the camera's render pass) is valid only
+while no registered object (a scene's shapes, BSDFs and emitters, a camera) is added or removed:
+Dr.Jit 1.5 then raises ``assign_with_registry()`` or, undetected, crashes. :func:`registry_changes`
+counts the scenes and cameras mitsonar made and freed, so such a recording is dropped and made
+anew when the count moved (tests ran two freshly cloned suites into both failures).
 """
 
 from __future__ import annotations
@@ -27,6 +32,7 @@ from __future__ import annotations
 import functools
 import gc
 import os
+import weakref
 
 import numpy as np
 
@@ -126,6 +132,27 @@ def freeze(function, **options):
 
     call.frozen = frozen
     return call
+
+
+_registry_changes = [0]
+
+
+def registry_changes() -> int:
+    """How many times a scene or camera that registers Mitsuba objects was made or freed in this
+    process (:func:`count_registry_changes`): a recording reaching the registry replays only
+    while this stays the same."""
+    return _registry_changes[0]
+
+
+def count_registry_changes(owner) -> None:
+    """Count ``owner`` (an object holding registered Mitsuba objects) as made now and as freed
+    when it is collected."""
+    _registry_changes[0] += 1
+    weakref.finalize(owner, _registry_changed)
+
+
+def _registry_changed() -> None:
+    _registry_changes[0] += 1
 
 
 def concat(parts) -> tuple:

@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from mitsonar._native import configure_llvm
-from mitsonar.jit import variant
+from mitsonar.jit import count_registry_changes, variant
 from mitsonar.physics.materials import DEFAULT_MATERIAL_NAME, AcousticMaterial, preset
 from mitsonar.scene.catalog import resolve_scene, shipped_scenes
 
@@ -122,8 +122,10 @@ def load_scene(path, default_material: AcousticMaterial | None = None) -> Acoust
         warnings.warn(f"{path}: {len(defaulted)} shape(s) have no acoustic material and get the "
                       f"default '{default.name}': {', '.join(defaulted)}", DefaultMaterialWarning,
                       stacklevel=2)
-    return AcousticScene(path, scene, [s.id() for s in shapes], materials, shape_material,
-                         registry_ids)
+    loaded = AcousticScene(path, scene, [s.id() for s in shapes], materials, shape_material,
+                           registry_ids)
+    count_registry_changes(loaded)  # its shapes, BSDFs and emitters (mitsonar.jit)
+    return loaded
 
 
 #: Mitsuba's source location before its messages, e.g. "[parser.cpp:1718] ".

@@ -34,6 +34,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from mitsonar.frames import Pose
+from mitsonar.jit import count_registry_changes, freeze, registry_changes
 from mitsonar.scene.building.lights import direct_light_integrator
 from mitsonar.scene.loading import AcousticScene, mitsuba
 from mitsonar.validation import check_positive, check_positive_integer
@@ -207,9 +208,11 @@ class CameraRenderer:
         # on several crashes Dr.Jit 1.5. The pass holds no reference to the renderer (no cycle:
         # both are freed as soon as the renderer is dropped, not by a later garbage collection).
         mi, chunk = self.mi, self._chunk
-        self._pass = dr.freeze(lambda scene, sensor, integrator, seed: mi.render(
+        self._pass = freeze(lambda scene, sensor, integrator, seed: mi.render(
             scene, sensor=sensor, integrator=integrator, spp=chunk, seed=seed),
             state_fn=lambda *_: (dr.thread_count(),)) if frozen else None
+        count_registry_changes(self)  # its camera and integrator
+        self._registry = None  # registry_changes() when the pass was recorded
 
     def _sensor_dict(self) -> dict:
         """Mitsuba description of the camera (its pose is set by :meth:`render`)."""
@@ -258,6 +261,9 @@ class CameraRenderer:
         scene; a scene with nested virtual calls, e.g. an emitter whose radiance is a texture,
         cannot be recorded and is rendered plainly from then on, the same image)."""
         if self._pass is not None:
+            if self._registry != registry_changes():  # objects the recording reaches changed
+                self._pass.frozen.clear()
+                self._registry = registry_changes()
             try:
                 return self._pass(self.scene.scene, self._camera, self._integrator, seed)
             except RuntimeError as err:

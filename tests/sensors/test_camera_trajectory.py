@@ -94,7 +94,34 @@ def test_frozen_render_replays_the_plain_render_bit_for_bit():
         image = renderer.render(pose_at(t), seed=k).rgb
         assert image.std() > 0
         np.testing.assert_array_equal(image, plain.render(pose_at(t), seed=k).rgb)
-    assert renderer._pass.n_recordings <= 2  # replayed, not traced again
+    assert renderer._pass.frozen.n_recordings <= 2  # replayed, not traced again
+
+
+def test_frozen_render_is_recorded_anew_when_another_scene_comes_and_goes():
+    """A recording reaches the scene's objects through Dr.Jit's registry, which every other
+    scene's shapes, BSDFs and emitters join and leave: after another scene was loaded and freed
+    the pass is recorded anew (replaying the old recording raised ``assign_with_registry()`` or
+    crashed the process, at random, in freshly cloned suites) and still gives the plain render's
+    image; with nothing loaded or freed in between it replays."""
+    import gc
+
+    path = SCENES / "room_glass" / "scene.xml"
+    scene = mitsonar.load_scene(path)
+    model = CameraModel(spp=2, denoise=False).at_resolution(64)
+    renderer, plain = CameraRenderer(scene, model), CameraRenderer(scene, model, frozen=False)
+    pose = pose_along(Trajectory.from_scene(path))(0.0)
+    for seed in (0, 1, 2):
+        renderer.render(pose, seed=seed)
+    recorded = renderer._pass.frozen.n_recordings
+    other = mitsonar.load_scene(SCENES / "structure" / "scene.xml")
+    del other
+    gc.collect()
+    np.testing.assert_array_equal(renderer.render(pose, seed=3).rgb, plain.render(pose, seed=3).rgb)
+    assert (recorded, renderer._pass.frozen.n_recordings) == (2, 1)  # dropped, recorded anew
+    for seed in (4, 5):  # recorded with the changing values opaque, then replayed
+        np.testing.assert_array_equal(renderer.render(pose, seed=seed).rgb,
+                                      plain.render(pose, seed=seed).rgb)
+    assert renderer._pass.frozen.n_recordings == 2
 
 
 def test_camera_depth_matches_sonar_depth_on_a_wall(scene_file):
