@@ -25,7 +25,8 @@ own pose. ``--repeated-scan chirp`` fires single-ping receive images driven by a
 instead (six per camera image, each point registered with its image's pose; docs/imaging.md);
 ``chirp_wide`` drives them with RTIS's 20-80 kHz sweep behind the ``paper`` preset's ideal
 transducers (``SonarConfig.with_wide_sweep``; the broadband transducers pass 20 kHz, so ``paper``
-only).
+only), ``chirp_wide_bands`` the same with the images' trust rule read in three sub-bands and
+their points placed at its peak (:data:`WIDE_BANDS`).
 
 Scoring (:func:`mitsonar.evaluation.metrics.evaluate`, 2 cm threshold). Every cloud is first
 thinned to one point per 1 cm voxel, the ground truth's resolution (:class:`VoxelThinner`: a
@@ -77,6 +78,7 @@ from mitsonar.recon.repeated import RepeatedMapSpec, build_voxel_map, scan_repea
 from mitsonar.recon.surfels import SurfelSettings, map_surfels_along
 from mitsonar.recon.surfels.map import build_map
 from mitsonar.recon.voxelmap import VoxelMapSettings
+from mitsonar.signal.imaging import ImagingSettings
 from mitsonar.scene.mesh import sample_surface, scene_mesh
 from mitsonar.sensors.baselines import DepthCamera, Lidar, sweep
 from mitsonar.sensors.trajectory import sensor_poses
@@ -100,7 +102,11 @@ IN_VIEW_PERIOD = 0.2
 #: What repeated mode can fire (:class:`RunSettings` ``repeated_scan``) and the mode each row
 #: reads.
 REPEATED_SCANS = {"ofdm": "repeated", "chirp": "repeated-chirp",
-                  "chirp_wide": "repeated-chirp-wide"}
+                  "chirp_wide": "repeated-chirp-wide",
+                  "chirp_wide_bands": "repeated-chirp-wide-bands"}
+#: The 20-80 kHz images' points rule with ``chirp_wide_bands``: the trust rule read in three
+#: sub-bands, points at its peak (as the strategy chart's ``imaging_chirp_wide_bands``).
+WIDE_BANDS = ImagingSettings(min_coherence=0.2, coherence_bands=3, coherence_peak=True)
 
 
 @dataclass(frozen=True)
@@ -119,8 +125,9 @@ class RunSettings:
         repeated_scan: what repeated mode fires: "ofdm" (OFDM frames, every echo of each beam),
             "chirp" (single-ping receive images driven by a 30-50 kHz frequency sweep behind
             broadband transducers, ``RepeatedMapSpec.scan='imaging'``) or "chirp_wide" (the same
-            images driven by ``SonarConfig.with_wide_sweep``, ``paper`` preset only); each
-            row's mode is the scan's in :data:`REPEATED_SCANS`.
+            images driven by ``SonarConfig.with_wide_sweep``, ``paper`` preset only) or
+            "chirp_wide_bands" (those with :data:`WIDE_BANDS`); each row's mode is the scan's in
+            :data:`REPEATED_SCANS`.
         dither: OFDM beam grid dithered over ``dither`` x ``dither`` offsets from frame to frame
             (``RepeatedMapSpec.dither``; 1: the paper's fixed grid); the rows' mode reads
             "repeated-dither<n>" then.
@@ -191,7 +198,7 @@ def sonar_run(scene, mode: str, preset: str, trajectory, settings: RunSettings, 
                      f"{len(final.groups)} planes")
         return clouds, len(clouds[-1]), len(final.scans), diagnosis
     chirp = settings.repeated_scan != "ofdm"
-    if settings.repeated_scan == "chirp_wide":
+    if settings.repeated_scan.startswith("chirp_wide"):
         config = config.with_wide_sweep()
     else:
         config = replace(config, transducer=mitsonar.Transducer.broadband(),
@@ -200,7 +207,9 @@ def sonar_run(scene, mode: str, preset: str, trajectory, settings: RunSettings, 
     spec = RepeatedMapSpec(duration=settings.duration, scan_step=settings.step, echoes="all",
                            dither=settings.dither,
                            seed=settings.seed, voxels=VoxelMapSettings(voxel_size=MAP_VOXEL),
-                           scan="imaging" if chirp else "ofdm")
+                           scan="imaging" if chirp else "ofdm",
+                           imaging=WIDE_BANDS if settings.repeated_scan == "chirp_wide_bands"
+                           else ImagingSettings())
     scanned, camera = scan_repeated(sonar, trajectory, spec, progress, settings.workers)
     starts = np.array([s.start_time for s in scanned])
     clouds = [build_voxel_map([s for s, t0 in zip(scanned, starts) if t0 <= t + 1e-9], camera,
@@ -351,7 +360,8 @@ def parse_args(argv):
     parser.add_argument("--repeated-scan", choices=tuple(REPEATED_SCANS), default="ofdm",
                         help="repeated mode fires OFDM frames (ofdm, default) or single-ping "
                              "images driven by a 30-50 kHz sweep (chirp) or by a 20-80 kHz "
-                             "one (chirp_wide, --presets paper only; docs/imaging.md)")
+                             "one (chirp_wide, --presets paper only; chirp_wide_bands: its "
+                             "trust rule read in sub-bands; docs/imaging.md)")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--workers", type=int, default=1,
                         help="processes that simulate repeated mode's frames at once, the same "
@@ -364,13 +374,13 @@ def parse_args(argv):
     presets = tuple(args.presets.split(","))
     if not presets or set(presets) - set(PRESETS):
         parser.error(f"--presets: give some of {', '.join(PRESETS)}, got {args.presets!r}")
-    if args.repeated_scan == "chirp_wide":
+    if args.repeated_scan.startswith("chirp_wide"):
         for preset in presets:
             try:
                 mitsonar.SonarConfig.preset(preset).with_wide_sweep()
             except ValueError as error:
-                parser.error(f"--repeated-scan chirp_wide needs --presets paper: the "
-                             f"{preset!r} preset: {error}")
+                parser.error(f"--repeated-scan {args.repeated_scan} needs --presets paper: "
+                             f"the {preset!r} preset: {error}")
     baselines = () if args.baselines == "none" else tuple(args.baselines.split(","))
     if set(baselines) - set(BASELINES):
         parser.error(f"--baselines: give some of {', '.join(BASELINES)} or none, "

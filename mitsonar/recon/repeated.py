@@ -48,6 +48,7 @@ from mitsonar.sensors.ofdm_sonar import Frame, OfdmSonar, pose_along
 from mitsonar.sensors.sonar import Sonar, beam_seed
 from mitsonar.sensors.trajectory import Trajectory
 from mitsonar.signal.detection import ECHO_MODES, OFF_BEAM_MODES, DetectionSettings
+from mitsonar.signal.imaging import ImagingSettings
 from mitsonar.validation import check_image_width, check_positive, check_positive_integer
 from mitsonar.recon.voxelmap import VoxelMap, VoxelMapSettings, colourise
 
@@ -95,8 +96,11 @@ class RepeatedMapSpec:
             docs/performance.md).
         seed: seeds every frame's noise and diffuse phases.
         scan: "ofdm" or "imaging" (module docstring); ``scan_step``, ``echoes``, ``off_beam``
-            and ``shared_hits`` concern OFDM frames only, ``transmit`` images only.
+            and ``shared_hits`` concern OFDM frames only, ``transmit`` and ``imaging`` images
+            only.
         transmit: the images' wide transmission and its trace.
+        imaging: the images' grid and points rule (e.g. the trust rule read in sub-bands of a
+            wide sweep, :class:`~mitsonar.signal.imaging.ImagingSettings`).
     """
 
     frames: int | None = None
@@ -114,6 +118,7 @@ class RepeatedMapSpec:
     seed: int = 0
     scan: str = "ofdm"
     transmit: TransmitSettings = TransmitSettings()
+    imaging: ImagingSettings = ImagingSettings()
 
     def __post_init__(self):
         if self.frames is not None:
@@ -193,7 +198,7 @@ class _RepeatedFrames:
             self.schedules = [replace(schedule, directions=d) for d in shifted]
             self.duration = schedule.frame_duration
         else:
-            self.imaging = ImagingSonar(sonar, transmit=spec.transmit)
+            self.imaging = ImagingSonar(sonar, spec.imaging, spec.transmit)
             self.per_frame = int(np.ceil(IMAGE_FRAME / self.imaging.cycle_time - 1e-9))
             self.duration = self.per_frame * self.imaging.cycle_time
         self.interval = self.duration if spec.interval is None else spec.interval
