@@ -26,7 +26,7 @@ instead (six per camera image, each point registered with its image's pose; docs
 ``chirp_wide`` drives them with RTIS's 20-80 kHz sweep behind the ``paper`` preset's ideal
 transducers (``SonarConfig.with_wide_sweep``; the broadband transducers pass 20 kHz, so ``paper``
 only), ``chirp_wide_bands`` the same with the images' trust rule read in three sub-bands and
-their points placed at its peak (:data:`WIDE_BANDS`).
+their points placed at its peak (``mitsonar.signal.imaging.WIDE_SWEEP_SETTINGS``).
 
 Scoring (:func:`mitsonar.evaluation.metrics.evaluate`, 2 cm threshold). Every cloud is first
 thinned to one point per 1 cm voxel, the ground truth's resolution (:class:`VoxelThinner`: a
@@ -78,7 +78,7 @@ from mitsonar.recon.repeated import RepeatedMapSpec, build_voxel_map, scan_repea
 from mitsonar.recon.surfels import SurfelSettings, map_surfels_along
 from mitsonar.recon.surfels.map import build_map
 from mitsonar.recon.voxelmap import VoxelMapSettings
-from mitsonar.signal.imaging import ImagingSettings
+from mitsonar.signal.imaging import WIDE_SWEEP_SETTINGS, ImagingSettings
 from mitsonar.scene.mesh import sample_surface, scene_mesh
 from mitsonar.sensors.baselines import DepthCamera, Lidar, sweep
 from mitsonar.sensors.trajectory import sensor_poses
@@ -104,9 +104,6 @@ IN_VIEW_PERIOD = 0.2
 REPEATED_SCANS = {"ofdm": "repeated", "chirp": "repeated-chirp",
                   "chirp_wide": "repeated-chirp-wide",
                   "chirp_wide_bands": "repeated-chirp-wide-bands"}
-#: The 20-80 kHz images' points rule with ``chirp_wide_bands``: the trust rule read in three
-#: sub-bands, points at its peak (as the strategy chart's ``imaging_chirp_wide_bands``).
-WIDE_BANDS = ImagingSettings(min_coherence=0.2, coherence_bands=3, coherence_peak=True)
 
 
 @dataclass(frozen=True)
@@ -126,8 +123,8 @@ class RunSettings:
             "chirp" (single-ping receive images driven by a 30-50 kHz frequency sweep behind
             broadband transducers, ``RepeatedMapSpec.scan='imaging'``) or "chirp_wide" (the same
             images driven by ``SonarConfig.with_wide_sweep``, ``paper`` preset only) or
-            "chirp_wide_bands" (those with :data:`WIDE_BANDS`); each row's mode is the scan's in
-            :data:`REPEATED_SCANS`.
+            "chirp_wide_bands" (those with ``WIDE_SWEEP_SETTINGS``); each row's mode is the
+            scan's in :data:`REPEATED_SCANS`.
         dither: OFDM beam grid dithered over ``dither`` x ``dither`` offsets from frame to frame
             (``RepeatedMapSpec.dither``; 1: the paper's fixed grid); the rows' mode reads
             "repeated-dither<n>" then.
@@ -208,8 +205,8 @@ def sonar_run(scene, mode: str, preset: str, trajectory, settings: RunSettings, 
                            dither=settings.dither,
                            seed=settings.seed, voxels=VoxelMapSettings(voxel_size=MAP_VOXEL),
                            scan="imaging" if chirp else "ofdm",
-                           imaging=WIDE_BANDS if settings.repeated_scan == "chirp_wide_bands"
-                           else ImagingSettings())
+                           imaging=WIDE_SWEEP_SETTINGS
+                           if settings.repeated_scan == "chirp_wide_bands" else ImagingSettings())
     scanned, camera = scan_repeated(sonar, trajectory, spec, progress, settings.workers)
     starts = np.array([s.start_time for s in scanned])
     clouds = [build_voxel_map([s for s, t0 in zip(scanned, starts) if t0 <= t + 1e-9], camera,

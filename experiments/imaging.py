@@ -26,8 +26,8 @@ it was measured from (no odometry drift):
   pass it), sampled at 250 kHz, the element patterns, patch integrals and absorption traced at
   five frequency nodes 15 kHz apart (``TraceSettings.subbands``, docs/imaging.md).
 * imaging_chirp_wide_bands: the same, its trust rule read in three sub-bands of the sweep and
-  averaged, each point placed at that coherence's peak (``ImagingSettings.coherence_bands``,
-  ``coherence_peak``, :data:`TRUST`).
+  averaged, each point placed at that coherence's peak
+  (``mitsonar.signal.imaging.WIDE_SWEEP_SETTINGS``, :data:`TRUST`).
 * ofdm_trusted: the same OFDM frames (poses and seeds), every echo and range cell trusted by
   their arrival directions alone: no side-lobe check along the beam axis, one plane wave from
   the measured direction explaining ``min_coherence`` of the channels' power (the check's
@@ -100,7 +100,7 @@ from mitsonar.sensors.imaging_sonar import ImagingSonar, TransmitSettings
 from mitsonar.sensors.ofdm_sonar import OfdmSonar, pose_along
 from mitsonar.sensors.sonar import beam_seed
 from mitsonar.sensors.trajectory import sensor_poses
-from mitsonar.signal.imaging import ImagingSettings
+from mitsonar.signal.imaging import WIDE_SWEEP_SETTINGS, ImagingSettings
 from mitsonar.signal.receiver import EchoProcessor
 
 if str(Path(__file__).resolve().parent) not in sys.path:  # the comparison's definitions
@@ -138,9 +138,9 @@ SINGLE_SETS = {"ofdm_trusted": "cells", "ofdm_image": "image", "imaging": "image
 #: default: the same images, each threshold's points a strategy of its own,
 #: ``imaging_trust_<threshold>`` (points per second against accuracy along the trade-off).
 IMAGING_TRUST = (0.35, 0.5)
-#: The imaging scans' trust rule where not the default: (``coherence_bands``, its threshold),
-#: points placed at the coherence's peak (``ImagingSettings.coherence_peak``).
-TRUST = {"imaging_chirp_wide_bands": (3, 0.2)}
+#: The imaging scans' points rule where not ``ImagingSettings()``: its ``min_coherence`` is the
+#: scan's default trust threshold.
+TRUST = {"imaging_chirp_wide_bands": WIDE_SWEEP_SETTINGS}
 #: Accuracy threshold [m] and completeness threshold [m].
 ACCURACY_THRESHOLD = 0.02
 COMPLETENESS_THRESHOLD = 0.05
@@ -211,7 +211,7 @@ def imaging_trust_sets(image, scan: str = "imaging") -> dict:
     """Points (N, 3) [m] of one image of ``scan`` per imaging strategy: ``<scan>`` those of the
     default trust threshold, ``<scan>_trust_<t>`` those of each threshold t of
     :data:`IMAGING_TRUST` (the image made with the lowest of them)."""
-    default = TRUST.get(scan, (1, ImagingSettings.min_coherence))[1]
+    default = TRUST.get(scan, ImagingSettings()).min_coherence
     return {scan if t == default else f"{scan}_trust_{t:g}":
             image.points_world[image.coherence >= t] for t in (default,) + IMAGING_TRUST}
 
@@ -276,9 +276,8 @@ class ScanFrames:
         else:
             if scan in CHIRP_SCANS:  # the same sonar driven by a sweep
                 sonar = mitsonar.Sonar(sonar.scene, CHIRP_SCANS[scan][1](sonar.config))
-            bands, default = TRUST.get(scan, (1, ImagingSettings.min_coherence))
-            trust = ImagingSettings(min_coherence=min((default,) + IMAGING_TRUST),
-                                    coherence_bands=bands, coherence_peak=bands > 1)
+            rule = TRUST.get(scan, ImagingSettings())
+            trust = replace(rule, min_coherence=min((rule.min_coherence,) + IMAGING_TRUST))
             self.imaging = ImagingSonar(sonar, trust, TransmitSettings(
                 rays_per_axis=settings.image_rays_per_axis))
             period = self.imaging.cycle_time

@@ -134,25 +134,26 @@ def freeze(function, **options):
     return call
 
 
-_registry_changes = [0]
+_registry_changes = 0
 
 
 def registry_changes() -> int:
     """How many times a scene or camera that registers Mitsuba objects was made or freed in this
     process (:func:`count_registry_changes`): a recording reaching the registry replays only
     while this stays the same."""
-    return _registry_changes[0]
+    return _registry_changes
 
 
 def count_registry_changes(owner) -> None:
     """Count ``owner`` (an object holding registered Mitsuba objects) as made now and as freed
     when it is collected."""
-    _registry_changes[0] += 1
+    _registry_changed()
     weakref.finalize(owner, _registry_changed)
 
 
 def _registry_changed() -> None:
-    _registry_changes[0] += 1
+    global _registry_changes
+    _registry_changes += 1
 
 
 def concat(parts) -> tuple:

@@ -274,7 +274,7 @@ def test_imaging_quick(tmp_path):
     images = [(p, "imaging") for p in presets] \
         + sorted({(p, scan) for (p, _), scan in chirped.items()})
     for preset, scan in images:  # the same images: a stricter trust threshold keeps a subset
-        default = experiment.TRUST.get(scan, (1, 0.4))[1]
+        default = experiment.TRUST.get(scan, experiment.ImagingSettings()).min_coherence
         names = {default: "", 0.35: "_trust_0.35", 0.5: "_trust_0.5"}
         points = [int(rows[preset, f"{scan}{names[t]}"]["points"]) for t in sorted(names)]
         assert points == sorted(points, reverse=True), (preset, scan, points)

@@ -18,10 +18,10 @@ shape) and tables made once per scene:
   which Mitsuba does not normalise, this is not M^-T (0, 0, 1)).
 
 The point is o + t d in double precision (Mitsuba's interpolates the triangle's vertices in
-single precision: they agree to a few 1e-7 of the distance, 3e-6 m on the shipped scenes). Normals carry the sign of Mitsuba's
-own, ``flip_normals`` aside: every user takes their line only (incidence angles, normals turned
-to face the ray). A scene holding any other kind of shape (instances, curves, SDF grids) is
-intersected by ``ray_intersect`` as before.
+single precision: they agree to a few 1e-7 of the distance, 3e-6 m on the shipped scenes).
+Normals carry the sign of Mitsuba's own, ``flip_normals`` aside: every user takes their line
+only (incidence angles, normals turned to face the ray). A scene holding any other kind of shape
+(instances, curves, SDF grids) is intersected by ``ray_intersect`` as before.
 """
 
 from __future__ import annotations

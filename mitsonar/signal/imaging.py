@@ -207,6 +207,12 @@ class ImagePoints:
         return len(self.points)
 
 
+#: The points rule for a wide sweep (20-80 kHz, ``SonarConfig.with_wide_sweep``): the trust rule
+#: read in three sub-bands at threshold 0.2, each point at that coherence's peak (docs/imaging.md,
+#: "Points"; as accurate as the whole band's 0.4 with 1.4-1.7 x its points).
+WIDE_SWEEP_SETTINGS = ImagingSettings(min_coherence=0.2, coherence_bands=3, coherence_peak=True)
+
+
 def coherence_windows(frequencies: np.ndarray, spectrum: np.ndarray, bands: int) -> np.ndarray:
     """(bands, nb) weights of the coherence's sub-bands at ``frequencies`` (nb,) [Hz]: ones for
     one band; else ``bands`` Hann windows spaced w apart, each 2 w wide, over the extent where
@@ -266,6 +272,8 @@ class ReceiveImager:
         uy, ux = np.meshgrid(axis, axis, indexing="ij")
         #: (n, n) shape of the square grid: rows along u_y, columns along u_x.
         self.shape = ux.shape
+        #: (9,) index offsets of a grid direction's 3 x 3 neighbourhood, row by row (u_y, u_x).
+        self._around = np.array([dy * ux.shape[1] + dx for dy in (-1, 0, 1) for dx in (-1, 0, 1)])
         disc = np.hypot(ux, uy) <= np.sin(guard_half_angle)
         uz = np.sqrt(np.maximum(1.0 - ux**2 - uy**2, 0.0))
         #: (D, 3) the grid's directions (unit vectors inside the guard disc, zeros outside).
@@ -427,7 +435,7 @@ class ReceiveImager:
         keep = coherence >= s.min_coherence
         d, k, value, coherence = d[keep], k[keep], value[keep], coherence[keep]
         passed["trusted"] = len(d)
-        offsets = self._coherence_peak_offsets(channels, d, k) if s.coherence_peak \
+        offsets = self._coherence_peak_offsets(channels, d, k, coherence) if s.coherence_peak \
             else self._peak_offsets(image, d, k)
         apparent = self.directions[d, :2] + self.spacing * offsets
         sample = k + vertex(image[d, k - 1], value, image[d, k + 1])
@@ -458,23 +466,24 @@ class ReceiveImager:
         directions d at samples k: the vertex of the quadratic through the log of the image at d
         and its 8 neighbours (exact for a Gaussian lobe, whose axes need not be the grid's), or,
         where that has no maximum within a step, of the parabolas along each axis."""
-        n_x = self.shape[1]
-        near = np.log(np.maximum(np.stack([image[d + dy * n_x + dx, k] for dy in (-1, 0, 1)
-                                           for dx in (-1, 0, 1)], axis=-1), 1e-30))
+        near = np.log(np.maximum(image[d[:, None] + self._around, k[:, None]], 1e-30))
         return peak_offsets(near.astype(float).reshape(-1, 3, 3))
 
-    def _coherence_peak_offsets(self, channels: np.ndarray, d: np.ndarray,
-                                k: np.ndarray) -> np.ndarray:
-        """(P, 2) offsets [grid steps] of the coherence's peak (:meth:`coherence` of ``channels``)
-        around grid directions d at samples k: the vertex of the quadratic through its log at d
-        and its 8 neighbours, as :meth:`_peak_offsets` reads the image (a neighbour outside the
-        guard disc or where the channels are silent counts as 1e-6), within one step: d is the
-        image's peak, not always the coherence's, whose vertex may lie beyond the neighbours."""
-        n_x = self.shape[1]
-        around = (d[None] + np.array([dy * n_x + dx for dy in (-1, 0, 1)
-                                      for dx in (-1, 0, 1)])[:, None]).ravel()  # (9 P,)
-        near = self.coherence(channels, around, np.tile(k, 9)).reshape(9, -1).T
-        near = np.where(self.valid[around].reshape(9, -1).T & np.isfinite(near), near, 1e-6)
+    def _coherence_peak_offsets(self, channels: np.ndarray, d: np.ndarray, k: np.ndarray,
+                                centre: np.ndarray) -> np.ndarray:
+        """(P, 2) offsets [grid steps] of the coherence's peak (:meth:`coherence` of ``channels``;
+        ``centre`` (P,) its value at d) around grid directions d at samples k: the vertex of the
+        quadratic through its log at d and its 8 neighbours, as :meth:`_peak_offsets` reads the
+        image (a neighbour outside the guard disc or where the channels are silent counts as
+        1e-6), within one step: d is the image's peak, not always the coherence's, whose vertex
+        may lie beyond the neighbours."""
+        around = d[:, None] + self._around  # (P, 9)
+        ring = np.delete(np.arange(9), 4)  # the 8 neighbours; the centre is known
+        near = np.empty(around.shape)
+        near[:, 4] = centre
+        near[:, ring] = self.coherence(channels, around[:, ring].ravel(),
+                                       np.repeat(k, 8)).reshape(-1, 8)
+        near = np.where(self.valid[around] & np.isfinite(near), near, 1e-6)
         return np.clip(peak_offsets(np.log(np.maximum(near, 1e-6)).reshape(-1, 3, 3)), -1.0, 1.0)
 
     def _side_lobe_levels(self, image: np.ndarray, row: np.ndarray, k: np.ndarray) -> np.ndarray:

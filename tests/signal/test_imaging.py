@@ -380,5 +380,6 @@ def test_the_coherence_peak_is_sought_within_one_grid_step(wide):
     imager.coherence = fake
     for offset, expected in (((3.0, 2.0), (1.0, 1.0)), ((0.4, -0.3), (0.4, -0.3))):
         fake.offset = offset
-        got = imager._coherence_peak_offsets(None, np.array([d]), np.array([10]))
+        cell = np.array([d])
+        got = imager._coherence_peak_offsets(None, cell, np.array([10]), fake(None, cell, None))
         np.testing.assert_allclose(got[0], expected, atol=1e-9)
