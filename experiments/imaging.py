@@ -19,15 +19,16 @@ it was measured from (no odometry drift):
   trust thresholds of :data:`IMAGING_TRUST` (``imaging_trust_<threshold>``).
 * imaging_chirp: the same single-ping images with the transmit element driven by a 4 ms
   30-50 kHz linear sweep instead of the tone burst (``Chirp``, :data:`CHIRP_SCANS`), as RTIS
-  images (``paper`` and ``broadband``), traced at two frequency nodes (the automatic count); the
-  cycle grows by the sweep's length (33.9 ms with the paper preset, 34.0 ms broadband: 3.5 ms
-  more than their bursts' cycles).
+  images (``paper`` and ``broadband``), traced at two frequency nodes (the automatic count); a
+  cycle 3.5 ms longer (33.9 ms with the paper preset, 34.0 ms broadband).
 * imaging_chirp_wide: a 4 ms sweep over RTIS's 20-80 kHz (``paper``, whose ideal transducers
   pass it), sampled at 250 kHz, the element patterns, patch integrals and absorption traced at
   five frequency nodes 15 kHz apart (``TraceSettings.subbands``, docs/imaging.md).
 * imaging_chirp_wide_bands: the same, its trust rule read in three sub-bands of the sweep and
   averaged, each point placed at that coherence's peak
   (``mitsonar.signal.imaging.WIDE_SWEEP_SETTINGS``, :data:`TRUST`).
+* imaging_chirp_wide_defocused: the same rule, the sweep sent by the whole array defocused over
+  the field of view (``imaging_sonar.DEFOCUSED``, :data:`TRANSMIT`; 14 dB over one element).
 * ofdm_trusted: the same OFDM frames (poses and seeds), every echo and range cell trusted by
   their arrival directions alone: no side-lobe check along the beam axis, one plane wave from
   the measured direction explaining ``min_coherence`` of the channels' power (the check's
@@ -68,8 +69,7 @@ is the wall-clock time of the simulation (shared by a scan's echo sets).
 
 Writes imaging.csv/.md (a row per scene, preset and strategy) and imaging.png (points per
 second against accuracy and completeness, the VLP-16's completeness and issue 28's goals
-marked). docs/imaging.md shows them (``--stride 20``: 22 min on 2 shared cores, 13 of them
-simulating the sonar; unstrided, the sonar would take about 4 h).
+marked), shown in docs/imaging.md (``--stride 20``: 22 min on 2 shared cores; unstrided ~4 h).
 
     .venv/bin/python experiments/imaging.py --stride 20 --out out/imaging
     .venv/bin/python experiments/imaging.py --quick --out out/imaging    # ~30 s
@@ -96,7 +96,7 @@ from mitsonar.parallel import ordered_map
 from mitsonar.plots import _pyplot, save_png
 from mitsonar.scene.mesh import scene_mesh
 from mitsonar.sensors.baselines import Lidar, sweep
-from mitsonar.sensors.imaging_sonar import ImagingSonar, TransmitSettings
+from mitsonar.sensors.imaging_sonar import DEFOCUSED, ImagingSonar, TransmitSettings
 from mitsonar.sensors.ofdm_sonar import OfdmSonar, pose_along
 from mitsonar.sensors.sonar import beam_seed
 from mitsonar.sensors.trajectory import sensor_poses
@@ -113,15 +113,15 @@ SCENE_NAMES = ("office", "workshop")
 #: with 20 kHz transducers (``Transducer.broadband()``).
 PRESETS = ("default", "broadband", "paper")
 SCANS = ("sequential", "ofdm", "ofdm_trusted", "ofdm_image", "imaging", "imaging_chirp",
-         "imaging_chirp_wide", "imaging_chirp_wide_bands")
+         "imaging_chirp_wide", "imaging_chirp_wide_bands", "imaging_chirp_wide_defocused")
 #: The chirp imaging scans (module docstring): the presets they run with and the sonar's
 #: configuration changed for the sweep: 30-50 kHz, the broadband transducers' -6 dB band, traced
 #: at its centre as those transducers' tone bursts are; 20-80 kHz traced at five frequency
 #: nodes (docs/imaging.md). The TCT40 class (``default``) passes 2 kHz: no sweep.
-CHIRP_SCANS = {
-    "imaging_chirp": (("broadband", "paper"), lambda c: replace(c, pulse=mitsonar.Chirp())),
-    "imaging_chirp_wide": (("paper",), mitsonar.SonarConfig.with_wide_sweep),
-    "imaging_chirp_wide_bands": (("paper",), mitsonar.SonarConfig.with_wide_sweep)}
+CHIRP_SCANS = {"imaging_chirp": (("broadband", "paper"),
+                                 lambda c: replace(c, pulse=mitsonar.Chirp())),
+               **{scan: (("paper",), mitsonar.SonarConfig.with_wide_sweep) for scan in SCANS
+                  if scan.startswith("imaging_chirp_wide")}}
 #: Echo sets of one sequential or OFDM simulation (module docstring).
 ECHO_SETS = ("first", "all", "cells")
 #: The lit cone of ``ofdm_trusted``: arrival directions within it of their beam's axis [rad]
@@ -131,16 +131,17 @@ TRUSTED_CONE = np.radians(3.0)
 DECODINGS = {"ofdm_trusted": dict(echoes="cells", ghost_margin=0.0, arrival_cone=TRUSTED_CONE),
              "ofdm_image": dict(echoes="image")}
 #: What each scan of one point set reports (``echoes`` in the table).
-SINGLE_SETS = {"ofdm_trusted": "cells", "ofdm_image": "image", "imaging": "image",
-               "imaging_chirp": "image", "imaging_chirp_wide": "image",
-               "imaging_chirp_wide_bands": "image"}
+SINGLE_SETS = {"ofdm_trusted": "cells", "ofdm_image": "image",
+               **{scan: "image" for scan in SCANS if scan.startswith("imaging")}}
 #: Further trust thresholds of the imaging scan (``ImagingSettings.min_coherence``) beside its
 #: default: the same images, each threshold's points a strategy of its own,
 #: ``imaging_trust_<threshold>`` (points per second against accuracy along the trade-off).
 IMAGING_TRUST = (0.35, 0.5)
-#: The imaging scans' points rule where not ``ImagingSettings()``: its ``min_coherence`` is the
-#: scan's default trust threshold.
-TRUST = {"imaging_chirp_wide_bands": WIDE_SWEEP_SETTINGS}
+#: The imaging scans' points rule where not ``ImagingSettings()`` (its ``min_coherence`` the
+#: scan's default trust threshold), and their transmission where not one element.
+TRUST = dict.fromkeys(("imaging_chirp_wide_bands", "imaging_chirp_wide_defocused"),
+                      WIDE_SWEEP_SETTINGS)
+TRANSMIT = {"imaging_chirp_wide_defocused": DEFOCUSED}
 #: Accuracy threshold [m] and completeness threshold [m].
 ACCURACY_THRESHOLD = 0.02
 COMPLETENESS_THRESHOLD = 0.05
@@ -155,12 +156,13 @@ COLOURS = {"paper": "C0", "default": "C1", "broadband": "C2"}
 COMPLETENESS_FLOOR = 0.1
 MARKERS = {"sequential_first": "s", "sequential_all": "D", "sequential_cells": "P",
            "ofdm_first": "o", "ofdm_all": "^", "ofdm_cells": "v", "ofdm_trusted": "p",
-           "ofdm_image": "X",
-           "imaging": "*", "imaging_trust_0.35": "<", "imaging_trust_0.5": ">",
+           "ofdm_image": "X", "imaging": "*", "imaging_trust_0.35": "<", "imaging_trust_0.5": ">",
            "imaging_chirp": "h", "imaging_chirp_trust_0.35": "3", "imaging_chirp_trust_0.5": "4",
            "imaging_chirp_wide": "d", "imaging_chirp_wide_trust_0.35": "1",
            "imaging_chirp_wide_trust_0.5": "2", "imaging_chirp_wide_bands": "$B$",
-           "imaging_chirp_wide_bands_trust_0.35": "+", "imaging_chirp_wide_bands_trust_0.5": "x"}
+           "imaging_chirp_wide_bands_trust_0.35": "+", "imaging_chirp_wide_bands_trust_0.5": "x",
+           "imaging_chirp_wide_defocused": "$D$", "imaging_chirp_wide_defocused_trust_0.35": "|",
+           "imaging_chirp_wide_defocused_trust_0.5": "_"}
 
 
 @dataclass(frozen=True)
@@ -278,7 +280,8 @@ class ScanFrames:
                 sonar = mitsonar.Sonar(sonar.scene, CHIRP_SCANS[scan][1](sonar.config))
             rule = TRUST.get(scan, ImagingSettings())
             trust = replace(rule, min_coherence=min((rule.min_coherence,) + IMAGING_TRUST))
-            self.imaging = ImagingSonar(sonar, trust, TransmitSettings(
+            self.imaging = ImagingSonar(sonar, trust, replace(
+                TRANSMIT.get(scan, TransmitSettings()),
                 rays_per_axis=settings.image_rays_per_axis))
             period = self.imaging.cycle_time
         self.frame_rate = 1.0 / period

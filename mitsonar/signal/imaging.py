@@ -31,7 +31,15 @@ Points. A cell (direction d, sample k) inside the field of view is a point when
 2. it is a range peak: the largest value of its direction within +- one range resolution (the
    full width at half maximum of an echo's matched-filter envelope,
    :attr:`ReceiveImager.range_resolution`), so two echoes of one direction further apart than
-   that are two points;
+   that are two points. Where several elements fire (the array defocused, ``transmit``), an
+   echo is a train of their waves' copies: element i's wave travels e_i(u) = c tau_i + lead -
+   (p_i - s) . u further towards u than the wave the echoes are placed with
+   (:func:`excess_paths`, far field; firing delays tau_i, transmit centre s); over the
+   field of view of a 20-80 kHz sweep from a virtual source 0.1 m behind the array the copies
+   spread over 37 mm of path (median, up to 67 mm), ten times the sweep's range resolution,
+   and each would be a point 0-3 cm behind its reflector. The window is then each direction's
+   spread max_i e_i - min_i e_i where longer: one point per train, and two echoes of one
+   direction closer than that one point;
 3. it is the peak of its receive main lobe: no direction within ``ghost_exclusion`` of d is
    stronger at sample k;
 4. it is no side lobe of another return. The receive array's side lobes are real, and with one
@@ -84,7 +92,9 @@ Points. A cell (direction d, sample k) inside the field of view is a point when
 Each point is placed as the receiver places a detection with its arrival direction: the
 direction refined between grid directions by a parabola through the image power along u_x and
 u_y (with ``coherence_peak``: through the coherence of rule 5, within one grid step), the time
-of arrival by a parabola through the envelope, and the point placed by
+of arrival by a parabola through the envelope (a train of copies, rule 2: the power centroid
+of the envelope over its window, less the mean of e_i towards the refined direction), and the
+point placed by
 :func:`mitsonar.signal.placement.place` (near field and curvature corrected, the bistatic depth
 (7) solved from the receive origin o_R along the direction, with the baseline from o_R to the
 transmit centre, a point source): point = o_R + r u_a.
@@ -227,6 +237,16 @@ def coherence_windows(frequencies: np.ndarray, spectrum: np.ndarray, bands: int)
     return np.where(np.abs(x) < 0.5, np.cos(np.pi * x) ** 2, 0.0)
 
 
+def excess_paths(positions: np.ndarray, firing: np.ndarray, lead: float, source,
+                 directions: np.ndarray, speed_of_sound: float) -> np.ndarray:
+    """(D, N) [m]: how much longer than the wave the echoes are placed with (transmit leg
+    |x - ``source``| - ``lead`` [m]) each element's wave travels towards far-field unit
+    ``directions`` (D, 3), elements at ``positions`` (N, 3) [m] fired at ``firing`` (N,) [s]:
+    c firing_i + lead - (p_i - source) . u."""
+    rel = np.asarray(positions, float) - np.asarray(source, float)
+    return speed_of_sound * np.asarray(firing, float) + lead - directions @ rel.T
+
+
 def _range_side_lobes(envelope: np.ndarray) -> np.ndarray:
     """(N,) |R| at lags 0 .. N - 1 [samples] of one echo's matched-filter envelope (N,) (its
     peak at lag 0): normalised to its peak, zero over its main lobe (up to its first minimum)."""
@@ -253,12 +273,16 @@ class ReceiveImager:
         settings: grid step and detection rule.
         region: (h_min, h_max, v_min, v_max) field-of-view angles [rad] of the directions points
             come from (:func:`~mitsonar.frames.fov_angles`); None: the whole field of view.
+        transmit: (positions (N_tx, 3) [m], firing delays (N_tx,) [s], lead [m]) of the
+            elements that fire, whose wave is placed from ``transmit_centre`` with the transmit
+            leg |x - transmit_centre| - lead; None or one element: a point source there (module
+            docstring, rule 2).
     """
 
     def __init__(self, geometry: ArrayGeometry, band: Band, speed_of_sound: float,
                  detection: DetectionSettings, noise_rms: float, transmit_centre,
                  guard_half_angle: float, settings: ImagingSettings = ImagingSettings(),
-                 region: tuple | None = None):
+                 region: tuple | None = None, transmit: tuple | None = None):
         check_range("guard_half_angle [rad]", guard_half_angle, settings.step, np.radians(89))
         self.geometry = geometry
         self.band = band
@@ -327,6 +351,18 @@ class ReceiveImager:
         # the autocorrelation of the system spectrum, its peak at lag 0.
         echo = np.abs(band.to_analytic(np.abs(band.system_spectrum()[band.bins]) ** 2))
         self.range_resolution, self._range_window = self._resolution(echo)
+        #: (F,) half-width [samples] of each field-of-view direction's range-peak window: the
+        #: range resolution or, where several elements fire, the spread of their waves' paths
+        #: towards it if longer (rule 2); None: the range resolution everywhere (one element,
+        #: or a spread within the resolution everywhere).
+        self._train = None
+        self._transmit = transmit
+        if transmit is not None and len(transmit[0]) > 1:
+            spread = np.ptp(excess_paths(*transmit, transmit_centre,
+                                         self.directions[self._fov_rows], self.c), axis=1)
+            train = np.ceil(spread / self.c * band.sample_rate).astype(int)
+            if np.any(train > self._range_window):
+                self._train = np.maximum(train, self._range_window)
         self._range_lobes = _range_side_lobes(echo)
         centre, _ = band.band_moments()
         self._main_lobe = np.sin(detection.ghost_exclusion)
@@ -414,6 +450,9 @@ class ReceiveImager:
         passed = {"threshold": int(above.sum())}
         peaks = sub >= maximum_filter1d(sub, 2 * self._range_window + 1, axis=1, mode="constant")
         row, k = np.nonzero(above & peaks)
+        if self._train is not None:
+            keep = self._train_peaks(sub, row, k)
+            row, k = row[keep], k[keep]
         passed["range_peak"] = len(row)
         value = sub[row, k]
         keep = value >= image[self._lobe[row], k[:, None]].max(axis=1, initial=0.0)
@@ -433,17 +472,48 @@ class ReceiveImager:
         d = fov[row]
         coherence = self.coherence(channels, d, k)
         keep = coherence >= s.min_coherence
-        d, k, value, coherence = d[keep], k[keep], value[keep], coherence[keep]
+        d, k, value, coherence, row = d[keep], k[keep], value[keep], coherence[keep], row[keep]
         passed["trusted"] = len(d)
         offsets = self._coherence_peak_offsets(channels, d, k, coherence) if s.coherence_peak \
             else self._peak_offsets(image, d, k)
         apparent = self.directions[d, :2] + self.spacing * offsets
-        sample = k + vertex(image[d, k - 1], value, image[d, k + 1])
+        sample = k + vertex(image[d, k - 1], value, image[d, k + 1]) if self._train is None \
+            else self._train_samples(sub, row, k, apparent)
         length = self.c * (start_time + sample / fs)
         points, arrival = place(self.geometry, length, apparent, self._transmit_centre)
         snr = value / self.noise_level if self.noise_level > 0 else np.full(len(value), np.inf)
         return ImagePoints(points, arrival, length, value, snr, coherence,
                            np.stack([d, k], axis=1), passed)
+
+    def _train_window(self, sub: np.ndarray, row: np.ndarray, k: np.ndarray):
+        """(lags (L,) [samples], (P, L) the image's field-of-view rows ``sub`` at rows ``row``,
+        samples k + lags, 0 outside each row's range-peak window, +- ``_train[row]``)."""
+        lags = np.arange(-int(self._train.max()), int(self._train.max()) + 1)
+        at = k[:, None] + lags
+        inside = (np.abs(lags) <= self._train[row, None]) & (at >= 0) & (at < sub.shape[1])
+        return lags, np.where(inside, sub[row[:, None], np.clip(at, 0, sub.shape[1] - 1)], 0)
+
+    def _train_peaks(self, sub: np.ndarray, row: np.ndarray, k: np.ndarray) -> np.ndarray:
+        """(P,) whether cells (field-of-view direction ``row``, sample k) of the image's
+        field-of-view rows ``sub`` are the largest of their range-peak window."""
+        keep = np.ones(len(row), bool)
+        for first in range(0, len(row), CANDIDATE_BATCH):  # bounded (batch, lags) gathers
+            rows = slice(first, first + CANDIDATE_BATCH)
+            near = self._train_window(sub, row[rows], k[rows])[1]
+            keep[rows] = sub[row[rows], k[rows]] >= near.max(axis=1)
+        return keep
+
+    def _train_samples(self, sub: np.ndarray, row: np.ndarray, k: np.ndarray,
+                       apparent: np.ndarray) -> np.ndarray:
+        """(P,) fractional samples at which the wave the points are placed with reached them
+        (several transmit elements, rule 2): the power centroid of each point's direction
+        over its range-peak window about sample k, less the elements' mean excess path towards
+        its measured ``apparent`` direction (P, 2) (direction cosines)."""
+        lags, near = self._train_window(sub, row, k)
+        power = near.astype(float) ** 2
+        u = np.column_stack([apparent, np.sqrt(np.maximum(1 - np.sum(apparent**2, axis=1), 0))])
+        excess = excess_paths(*self._transmit, self._transmit_centre, u, self.c).mean(axis=1)
+        return k + power @ lags / power.sum(axis=1) - excess / self.c * self.band.sample_rate
 
     def coherence(self, channels: np.ndarray, d: np.ndarray, k: np.ndarray) -> np.ndarray:
         """(P,) share of the channels' power at cells (grid direction d, sample k) that one plane

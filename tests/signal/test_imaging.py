@@ -10,10 +10,11 @@ import pytest
 
 import mitsonar
 from mitsonar.frames import direction_from_fov_angles
-from mitsonar.sensors.imaging_sonar import TransmitSettings
+from mitsonar.sensors.imaging_sonar import DEFOCUSED, TransmitSettings
 from mitsonar.sensors.sonar import PRE_ROLL
 from mitsonar.signal.band import Band
-from mitsonar.signal.imaging import ImagingSettings, ReceiveImager, coherence_windows
+from mitsonar.signal.imaging import (WIDE_SWEEP_SETTINGS, ImagingSettings, ReceiveImager,
+                                     coherence_windows)
 from mitsonar.signal.receiver import EchoProcessor
 from mitsonar.signal.synthesis import EchoSynthesizer
 from mitsonar.trace.paths import Paths
@@ -310,6 +311,43 @@ def test_coherence_sub_bands_tile_the_sweep_and_are_averaged(wide):
     assert measured[2] >= 0.85, measured
     whole = _wide_imager(wide)
     assert whole.channel_signals(spectra).shape[0] == 1
+
+
+def test_a_defocused_arrays_echo_trains_are_one_point_each(wide):
+    """The whole array defocused over the field of view (``DEFOCUSED``: one sector, virtual
+    source 0.1 m behind the array) behind the 20-80 kHz sweep: each reflector's echo is a train
+    of the 25 elements' copies spread over 6-62 mm of path (exact spherical-wave paths from
+    every element). Seven reflectors across the field of view, its corners included: exactly
+    seven points, each within 6 mm of its reflector (measured 1.7-5.1 mm: the train's power
+    centroid less the elements' mean excess path towards it). Imaged as one element's echoes
+    (no ``transmit``) the copies are points of their own: 30 (four a reflector), up to 16 cm
+    off."""
+    band, synth, cfg = wide
+    emission = DEFOCUSED.emissions(GEOMETRY, C)[0]
+    h0, h1, v0, v1 = np.degrees(emission.region)
+    targets = _targets([h0 + 3, 0, h1 - 3, h0 + 3, h1 - 3, 12, -15],
+                       [v1 - 3, 0, v0 + 3, v0 + 3, v1 - 3, -8, 10],
+                       [1.6, 2.2, 2.8, 2.0, 2.5, 3.2, 1.9])
+    tx, rx = GEOMETRY.tx_positions, GEOMETRY.rx_positions
+    delay = emission.firing[None, :, None] + (
+        np.linalg.norm(targets[:, None] - tx[None], axis=-1)[:, :, None]
+        + np.linalg.norm(targets[:, None] - rx[None], axis=-1)[:, None, :]) / C
+    paths = Paths(np.full(delay.size, 1e-3, complex), delay.ravel(),
+                  np.tile(np.arange(len(rx)), len(targets) * len(tx)))
+    recording = synth.recording(band.to_samples(synth.group_spectrum(
+        paths, None, GEOMETRY.rx.count)), cfg.noise_rms, seed=7)
+    found = {}
+    for name, transmit in (("train", (tx, emission.firing, emission.lead)), ("element", None)):
+        imager = ReceiveImager(GEOMETRY, band, C, cfg.detection, cfg.noise_rms, emission.source,
+                               DEFOCUSED.cone_half_angle, WIDE_SWEEP_SETTINGS,
+                               emission.region, transmit)
+        image, channels = imager.image(recording)
+        found[name] = imager.points(image, channels, recording.start_time + emission.lead / C)
+    error = np.linalg.norm(found["train"].points[:, None] - targets[None], axis=-1)
+    assert len(found["train"]) == len(targets), len(found["train"])
+    assert sorted(error.argmin(axis=1)) == list(range(len(targets)))
+    assert np.all(error.min(axis=1) <= 6e-3), error.min(axis=1)
+    assert len(found["element"]) >= 3 * len(targets), len(found["element"])
 
 
 def test_sub_band_coherence_does_not_trust_echoes_arriving_together(wide):
