@@ -26,7 +26,8 @@ instead (six per camera image, each point registered with its image's pose; docs
 ``chirp_wide`` drives them with RTIS's 20-80 kHz sweep behind the ``paper`` preset's ideal
 transducers (``SonarConfig.with_wide_sweep``; the broadband transducers pass 20 kHz, so ``paper``
 only), ``chirp_wide_bands`` the same with the images' trust rule read in three sub-bands and
-their points placed at its peak (``mitsonar.signal.imaging.WIDE_SWEEP_SETTINGS``).
+their points placed at its peak (``mitsonar.signal.imaging.WIDE_SWEEP_SETTINGS``),
+``chirp_wide_defocused`` those sent by the whole array defocused (``imaging_sonar.DEFOCUSED``).
 
 Scoring (:func:`mitsonar.evaluation.metrics.evaluate`, 2 cm threshold). Every cloud is first
 thinned to one point per 1 cm voxel, the ground truth's resolution (:class:`VoxelThinner`: a
@@ -81,6 +82,7 @@ from mitsonar.recon.voxelmap import VoxelMapSettings
 from mitsonar.signal.imaging import WIDE_SWEEP_SETTINGS, ImagingSettings
 from mitsonar.scene.mesh import sample_surface, scene_mesh
 from mitsonar.sensors.baselines import DepthCamera, Lidar, sweep
+from mitsonar.sensors.imaging_sonar import DEFOCUSED, TransmitSettings
 from mitsonar.sensors.trajectory import sensor_poses
 
 SCENES = Path(__file__).resolve().parents[1] / "scenes"
@@ -103,7 +105,8 @@ IN_VIEW_PERIOD = 0.2
 #: reads.
 REPEATED_SCANS = {"ofdm": "repeated", "chirp": "repeated-chirp",
                   "chirp_wide": "repeated-chirp-wide",
-                  "chirp_wide_bands": "repeated-chirp-wide-bands"}
+                  "chirp_wide_bands": "repeated-chirp-wide-bands",
+                  "chirp_wide_defocused": "repeated-chirp-wide-defocused"}
 
 
 @dataclass(frozen=True)
@@ -123,7 +126,8 @@ class RunSettings:
             "chirp" (single-ping receive images driven by a 30-50 kHz frequency sweep behind
             broadband transducers, ``RepeatedMapSpec.scan='imaging'``) or "chirp_wide" (the same
             images driven by ``SonarConfig.with_wide_sweep``, ``paper`` preset only) or
-            "chirp_wide_bands" (those with ``WIDE_SWEEP_SETTINGS``); each row's mode is the
+            "chirp_wide_bands" (those with ``WIDE_SWEEP_SETTINGS``) or "chirp_wide_defocused"
+            (those sent by the whole array defocused, ``DEFOCUSED``); each row's mode is the
             scan's in :data:`REPEATED_SCANS`.
         dither: OFDM beam grid dithered over ``dither`` x ``dither`` offsets from frame to frame
             (``RepeatedMapSpec.dither``; 1: the paper's fixed grid); the rows' mode reads
@@ -205,8 +209,10 @@ def sonar_run(scene, mode: str, preset: str, trajectory, settings: RunSettings, 
                            dither=settings.dither,
                            seed=settings.seed, voxels=VoxelMapSettings(voxel_size=MAP_VOXEL),
                            scan="imaging" if chirp else "ofdm",
-                           imaging=WIDE_SWEEP_SETTINGS
-                           if settings.repeated_scan == "chirp_wide_bands" else ImagingSettings())
+                           imaging=WIDE_SWEEP_SETTINGS if settings.repeated_scan in (
+                               "chirp_wide_bands", "chirp_wide_defocused") else ImagingSettings(),
+                           transmit=DEFOCUSED if settings.repeated_scan == "chirp_wide_defocused"
+                           else TransmitSettings())
     scanned, camera = scan_repeated(sonar, trajectory, spec, progress, settings.workers)
     starts = np.array([s.start_time for s in scanned])
     clouds = [build_voxel_map([s for s, t0 in zip(scanned, starts) if t0 <= t + 1e-9], camera,
@@ -358,7 +364,8 @@ def parse_args(argv):
                         help="repeated mode fires OFDM frames (ofdm, default) or single-ping "
                              "images driven by a 30-50 kHz sweep (chirp) or by a 20-80 kHz "
                              "one (chirp_wide, --presets paper only; chirp_wide_bands: its "
-                             "trust rule read in sub-bands; docs/imaging.md)")
+                             "trust rule read in sub-bands; chirp_wide_defocused: those sent "
+                             "by the whole array defocused; docs/imaging.md)")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--workers", type=int, default=1,
                         help="processes that simulate repeated mode's frames at once, the same "
