@@ -16,6 +16,7 @@ from mitsonar.recon.surfels import (SurfelSettings, map_surfels, map_surfels_alo
                                     save_surfel_map, summary)
 from mitsonar.recon.voxelmap import VoxelMapSettings, save_voxel_figure, save_voxel_ply
 from mitsonar.sensors.camera import CameraModel
+from mitsonar.sensors.imaging_sonar import DEFOCUSED, TransmitSettings
 from mitsonar.sensors.sonar import Sonar
 from mitsonar.sensors.trajectory import sensor_poses
 
@@ -46,6 +47,10 @@ def add_cli(subparsers) -> None:
                    help="OFDM frames back to back ('ofdm', the paper's) or single-ping receive "
                         "images, one per listening cycle, a camera image every 0.2 s "
                         "('imaging') (default: ofdm)")
+    r.add_argument("--transmit", choices=("element", "defocused"), default="element",
+                   help="with --scan imaging: one transmit element ('element', as RTIS) or the "
+                        "whole array defocused over the field of view ('defocused', 14 dB more; "
+                        "docs/imaging.md) (default: element)")
     r.add_argument("--registration", choices=REGISTRATIONS, default="beam",
                    help="pose of the points: each beam's pose at firing ('beam') or one odometry "
                         "pose per frame ('frame', the paper's) (default: beam)")
@@ -90,13 +95,17 @@ def _drive(args):
 def _run_repeated(args) -> int:
     from tqdm import tqdm
 
+    if args.transmit != "element" and args.scan != "imaging":
+        raise ValueError(f"--transmit {args.transmit} needs --scan imaging (OFDM frames steer "
+                         "the whole array)")
     config = drive_config(args)
     trajectory, driven = _drive(args)
     spec = RepeatedMapSpec(frames=args.frames, duration=driven, scan_step=np.radians(args.step),
                            dither=args.dither,
                            voxels=VoxelMapSettings(voxel_size=args.voxel),
                            registration=args.registration, echoes=args.echoes, seed=args.seed,
-                           scan=args.scan)
+                           scan=args.scan, transmit=DEFOCUSED if args.transmit == "defocused"
+                           else TransmitSettings())
     sonar = Sonar(args.scene, config)
     label = "OFDM frames" if args.scan == "ofdm" else "image frames"
     with tqdm(desc=label, unit="frame", file=sys.stderr) as bar:

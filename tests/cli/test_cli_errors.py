@@ -166,10 +166,11 @@ def test_a_drive_longer_than_the_trajectory_is_refused(tmp_path, capsys, mode, v
 
 
 @pytest.mark.parametrize("options,names", [
-    (["--chirp"], ["--chirp", "--broadband", "2 kHz"])])
+    (["--chirp"], ["--chirp", "--broadband", "2 kHz"]),
+    (["--transmit", "defocused"], ["--transmit defocused", "--scan imaging"])])
 def test_repeated_options_that_do_not_go_together(tmp_path, capsys, options, names):
-    """A sweep behind the narrow-band TCT40 transducers: one line naming the options, before
-    anything is simulated or written."""
+    """A sweep behind the narrow-band TCT40 transducers, a defocused transmission for OFDM
+    frames: one line naming the options, before anything is simulated or written."""
     code, err = run(["map", "repeated", "room_glass", "--out", tmp_path / "o", *options], capsys)
     assert code == 2
     assert_one_line_error(err, *names)
