@@ -16,7 +16,7 @@ from mitsonar.recon.surfels import (SurfelSettings, map_surfels, map_surfels_alo
                                     save_surfel_map, summary)
 from mitsonar.recon.voxelmap import VoxelMapSettings, save_voxel_figure, save_voxel_ply
 from mitsonar.sensors.camera import CameraModel
-from mitsonar.sensors.imaging_sonar import DEFOCUSED, TransmitSettings
+from mitsonar.sensors.imaging_sonar import TRANSMISSIONS
 from mitsonar.sensors.sonar import Sonar
 from mitsonar.sensors.trajectory import sensor_poses
 
@@ -47,7 +47,7 @@ def add_cli(subparsers) -> None:
                    help="OFDM frames back to back ('ofdm', the paper's) or single-ping receive "
                         "images, one per listening cycle, a camera image every 0.2 s "
                         "('imaging') (default: ofdm)")
-    r.add_argument("--transmit", choices=("element", "defocused"), default="element",
+    r.add_argument("--transmit", choices=tuple(TRANSMISSIONS), default="element",
                    help="with --scan imaging: one transmit element ('element', as RTIS) or the "
                         "whole array defocused over the field of view ('defocused', 14 dB more; "
                         "docs/imaging.md) (default: element)")
@@ -104,8 +104,7 @@ def _run_repeated(args) -> int:
                            dither=args.dither,
                            voxels=VoxelMapSettings(voxel_size=args.voxel),
                            registration=args.registration, echoes=args.echoes, seed=args.seed,
-                           scan=args.scan, transmit=DEFOCUSED if args.transmit == "defocused"
-                           else TransmitSettings())
+                           scan=args.scan, transmit=TRANSMISSIONS[args.transmit])
     sonar = Sonar(args.scene, config)
     label = "OFDM frames" if args.scan == "ofdm" else "image frames"
     with tqdm(desc=label, unit="frame", file=sys.stderr) as bar:

@@ -143,6 +143,8 @@ class TransmitSettings:
 #: 20-80 kHz sweep (9.5-18.6 dB over one element, 14.3 dB on average: the 25 elements' power;
 #: docs/imaging.md, "Transmission").
 DEFOCUSED = TransmitSettings(transmit="sectors", sectors=(1, 1), virtual_source=0.1)
+#: The transmissions a user picks by name (``mitsonar map repeated --transmit``).
+TRANSMISSIONS = {"element": TransmitSettings(), "defocused": DEFOCUSED}
 
 
 @dataclass(frozen=True)

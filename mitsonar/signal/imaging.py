@@ -353,8 +353,8 @@ class ReceiveImager:
         self.range_resolution, self._range_window = self._resolution(echo)
         #: (F,) half-width [samples] of each field-of-view direction's range-peak window: the
         #: range resolution or, where several elements fire, the spread of their waves' paths
-        #: towards it if longer (rule 2); None: the range resolution everywhere (one element,
-        #: or a spread within the resolution everywhere).
+        #: towards it if longer (rule 2; ``_train_lags`` the widest's lags); None: the range
+        #: resolution everywhere (one element, or a spread within the resolution everywhere).
         self._train = None
         self._transmit = transmit
         if transmit is not None and len(transmit[0]) > 1:
@@ -363,6 +363,7 @@ class ReceiveImager:
             train = np.ceil(spread / self.c * band.sample_rate).astype(int)
             if np.any(train > self._range_window):
                 self._train = np.maximum(train, self._range_window)
+                self._train_lags = np.arange(-int(self._train.max()), int(self._train.max()) + 1)
         self._range_lobes = _range_side_lobes(echo)
         centre, _ = band.band_moments()
         self._main_lobe = np.sin(detection.ghost_exclusion)
@@ -488,7 +489,7 @@ class ReceiveImager:
     def _train_window(self, sub: np.ndarray, row: np.ndarray, k: np.ndarray):
         """(lags (L,) [samples], (P, L) the image's field-of-view rows ``sub`` at rows ``row``,
         samples k + lags, 0 outside each row's range-peak window, +- ``_train[row]``)."""
-        lags = np.arange(-int(self._train.max()), int(self._train.max()) + 1)
+        lags = self._train_lags
         at = k[:, None] + lags
         inside = (np.abs(lags) <= self._train[row, None]) & (at >= 0) & (at < sub.shape[1])
         return lags, np.where(inside, sub[row[:, None], np.clip(at, 0, sub.shape[1] - 1)], 0)
