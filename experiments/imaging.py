@@ -9,55 +9,43 @@ deg/s on the spot) and the sonar scans at its own rate, every point registered w
 it was measured from (no odometry drift):
 
 * sequential: single-beam pings over the 117-beam 5 deg grid, one listening time
-  (``SonarConfig.record_duration``) apart, each fired from the robot's pose at its own firing
-  time (:meth:`Sonar.scan <mitsonar.sensors.sonar.Sonar.scan>` of one beam); a sweep of the grid
-  is a frame (3.6 s with the paper preset, 4.0 s with the default).
-* OFDM: frames of the 117 coded beams back to back (208.5 ms each, 25 codes per cycle; each beam
-  from its own pose, :class:`~mitsonar.sensors.ofdm_sonar.OfdmSonar`).
+  (``SonarConfig.record_duration``) apart, each from the robot's pose at its own firing time; a
+  sweep of the grid is a frame (3.6 s with the paper preset, 4.0 s with the default).
+* OFDM: frames of the 117 coded beams back to back (208.5 ms each, 25 codes per cycle, each
+  beam from its own pose, :class:`~mitsonar.sensors.ofdm_sonar.OfdmSonar`); ``ofdm_trusted``
+  and ``ofdm_image`` decode the same frames otherwise (:data:`DECODINGS`: every echo and range
+  cell trusted by its arrival direction alone, inside :data:`TRUSTED_CONE` of the axis; receive
+  imaging over each beam's lit cone, :mod:`mitsonar.signal.cone`).
 * imaging: single-ping receive images (:class:`~mitsonar.sensors.imaging_sonar.ImagingSonar`,
-  one transmit element), one per listening cycle (30.4 / 34.0 ms); the same images also at the
-  trust thresholds of :data:`IMAGING_TRUST` (``imaging_trust_<threshold>``).
-* imaging_chirp: the same single-ping images with the transmit element driven by a 4 ms
-  30-50 kHz linear sweep instead of the tone burst (``Chirp``, :data:`CHIRP_SCANS`), as RTIS
-  images (``paper`` and ``broadband``), traced at two frequency nodes (the automatic count); a
-  cycle 3.5 ms longer (33.9 ms with the paper preset, 34.0 ms broadband).
-* imaging_chirp_wide: a 4 ms sweep over RTIS's 20-80 kHz (``paper``, whose ideal transducers
-  pass it), sampled at 250 kHz, the element patterns, patch integrals and absorption traced at
-  five frequency nodes 15 kHz apart (``TraceSettings.subbands``, docs/imaging.md).
-* imaging_chirp_wide_bands: the same, its trust rule read in three sub-bands of the sweep and
-  averaged, each point placed at that coherence's peak
-  (``mitsonar.signal.imaging.WIDE_SWEEP_SETTINGS``, :data:`TRUST`).
-* imaging_chirp_wide_defocused: the same rule, the sweep sent by the whole array defocused over
-  the field of view (``imaging_sonar.DEFOCUSED``, :data:`TRANSMIT`; 14 dB over one element).
-* ofdm_trusted: the same OFDM frames (poses and seeds), every echo and range cell trusted by
-  their arrival directions alone: no side-lobe check along the beam axis, one plane wave from
-  the measured direction explaining ``min_coherence`` of the channels' power (the check's
-  margin follows from it, docs/imaging.md) and that direction inside the lit cone,
-  :data:`TRUSTED_CONE` of the axis (``DetectionSettings(ghost_margin=0, arrival_cone=...)``):
-  one point set, ``ofdm_trusted``.
-* ofdm_image: the same OFDM frames (poses and seeds), decoded by receive imaging over each
-  beam's lit cone (``DetectionSettings.echoes = 'image'``, :mod:`mitsonar.signal.cone`): one
-  point set, ``ofdm_image``.
+  one transmit element), one per listening cycle (30.4 / 34.0 ms), also at the trust
+  thresholds of :data:`IMAGING_TRUST` (``<scan>_trust_<threshold>``). ``imaging_chirp``: the
+  element driven by a 4 ms 30-50 kHz sweep (``Chirp``, :data:`CHIRP_SCANS`), as RTIS images;
+  ``imaging_chirp_wide``: a 4 ms 20-80 kHz sweep (``paper``) at 250 kHz, traced at five
+  frequency nodes (docs/imaging.md); ``_bands``: its trust rule read in three sub-bands, each
+  point at that coherence's peak (``WIDE_SWEEP_SETTINGS``, :data:`TRUST`); ``_defocused``: the
+  same rule, the sweep sent by the whole array defocused over the field of view
+  (``imaging_sonar.DEFOCUSED``, :data:`TRANSMIT`; 14 dB over one element).
 
 Echoes. The sequential and OFDM beams are simulated once with ``DetectionSettings.echoes =
-'cells'``, which reports every echo of a beam (its resolved peaks, exactly the rows that
-``echoes = 'all'`` gives) and, after them, the range cells across extended echoes. One
-simulation gives three point sets: ``first`` (each beam's strongest trusted echo, its rank-0
-peak: the beam's ``Detections`` entry with every echo on), ``all`` (every peak) and ``cells``
-(every row).
+'cells'``; one simulation gives three point sets: ``first`` (each beam's strongest trusted
+echo), ``all`` (every resolved peak) and ``cells`` (every row: the peaks, then the range cells
+across extended echoes).
 
 Scoring, with the comparison's definitions for every sensor (``experiments/comparison.py``):
-each cloud is thinned to one point per 1 cm voxel (``VoxelThinner``, a seeded random point of
-each) and scored with the definitions of :func:`mitsonar.evaluation.metrics.evaluate`:
-``accuracy_pct`` is the share of its points within 2 cm of the mesh, ``completeness_5cm_pct``
-the share of the observable ground-truth samples (1 cm apart, in line of sight of the sensor
-head at least once a second along the drive) with a point within 5 cm; ``sonar_in_view_pct``
-the share of those the sonar's field of view covers, within its range and line of sight, from
-one pose or more every :data:`IN_VIEW_PERIOD` along the drive
+each cloud is thinned to one point per 1 cm voxel (``VoxelThinner``) and scored as
+:func:`mitsonar.evaluation.metrics.evaluate` does: ``accuracy_pct`` is the share of its points
+within 2 cm of the mesh, ``completeness_5cm_pct`` the share of the observable ground-truth
+samples (1 cm apart, in line of sight of the sensor head at least once a second along the
+drive) with a point within 5 cm; ``sonar_in_view_pct`` the share of those in the sonar's field
+of view, range and line of sight from a pose every :data:`IN_VIEW_PERIOD`
 (:func:`~mitsonar.evaluation.coverage.in_view_along`): no sonar strategy's completeness can
-exceed it. The VLP-16 (10 Hz,
-each column fired at its own time, :func:`mitsonar.sensors.baselines.sweep`) drives the same
-path, whole, and is scored the same way.
+exceed it. The VLP-16 (10 Hz, each column at its own time,
+:func:`mitsonar.sensors.baselines.sweep`) drives the same path, whole, scored the same way.
+Each of these is also given per surface class (``<class>_share_pct``, ``<class>_in_view_pct``,
+``<class>_vlp16_pct``, ``<class>_completeness_pct``; classes
+:data:`~mitsonar.evaluation.coverage.SURFACE_CLASSES`: horizontal below the sensor head,
+above it, vertical, sloped): which surfaces a strategy misses, and which no forward-looking
+sonar sees.
 
 ``--stride K`` simulates every K-th frame (sweep, OFDM frame or image) of the sensor's schedule
 along the drive, still at the sensor's own times and poses: ``points_per_s`` is the sensor's
@@ -88,12 +76,12 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 import mitsonar
-from mitsonar.evaluation.coverage import in_view_along
+from mitsonar.evaluation.coverage import (SURFACE_CLASSES, covered_by_class, in_view_along,
+                                          surface_classes)
 from mitsonar.evaluation.metrics import point_to_mesh, sample_surface, visible_from
 from mitsonar.recon.thinning import VoxelThinner
 from mitsonar.io import write_table
 from mitsonar.parallel import ordered_map
-from mitsonar.plots import _pyplot, save_png
 from mitsonar.scene.mesh import scene_mesh
 from mitsonar.sensors.baselines import Lidar, sweep
 from mitsonar.sensors.imaging_sonar import DEFOCUSED, ImagingSonar, TransmitSettings
@@ -106,6 +94,8 @@ from mitsonar.signal.receiver import EchoProcessor
 if str(Path(__file__).resolve().parent) not in sys.path:  # the comparison's definitions
     sys.path.append(str(Path(__file__).resolve().parent))
 from comparison import IN_VIEW_PERIOD, THIN_VOXEL, VIEW_PERIOD  # noqa: E402
+from imaging_report import (TODAY_POINTS_PER_S, markdown, save_figure,  # noqa: E402
+                            save_surface_figure)
 
 SCENES = Path(__file__).resolve().parents[1] / "scenes"
 SCENE_NAMES = ("office", "workshop")
@@ -145,26 +135,6 @@ TRANSMIT = {"imaging_chirp_wide_defocused": DEFOCUSED}
 #: Accuracy threshold [m] and completeness threshold [m].
 ACCURACY_THRESHOLD = 0.02
 COMPLETENESS_THRESHOLD = 0.05
-#: Issue 28's references [points/s]: OFDM frames back to back on office, one echo per beam, 43
-#: points per 208.5 ms frame with the paper preset and 24 with the physical default (broadband
-#: transducers), and its goals as (multiple of the reference, share within 2 cm).
-TODAY_POINTS_PER_S = {"paper": 208.0, "default": 115.0, "broadband": 115.0}
-GOALS = {"paper": (10.0, 0.90), "default": (3.0, 0.70), "broadband": (3.0, 0.70)}
-#: Marker colour per preset (the physical ones drawn open).
-COLOURS = {"paper": "C0", "default": "C1", "broadband": "C2"}
-#: Completeness [%] below which the figure draws it at this value (log scale).
-COMPLETENESS_FLOOR = 0.1
-MARKERS = {"sequential_first": "s", "sequential_all": "D", "sequential_cells": "P",
-           "ofdm_first": "o", "ofdm_all": "^", "ofdm_cells": "v", "ofdm_trusted": "p",
-           "ofdm_image": "X", "imaging": "*", "imaging_trust_0.35": "<", "imaging_trust_0.5": ">",
-           "imaging_chirp": "h", "imaging_chirp_trust_0.35": "3", "imaging_chirp_trust_0.5": "4",
-           "imaging_chirp_wide": "d", "imaging_chirp_wide_trust_0.35": "1",
-           "imaging_chirp_wide_trust_0.5": "2", "imaging_chirp_wide_bands": "$B$",
-           "imaging_chirp_wide_bands_trust_0.35": "+", "imaging_chirp_wide_bands_trust_0.5": "x",
-           "imaging_chirp_wide_defocused": "$D$", "imaging_chirp_wide_defocused_trust_0.35": "|",
-           "imaging_chirp_wide_defocused_trust_0.5": "_"}
-
-
 @dataclass(frozen=True)
 class RunSettings:
     """How the chart is driven and simulated.
@@ -332,13 +302,15 @@ def simulate(scan: str, sonar, trajectory, settings: RunSettings, progress, path
 @dataclass(frozen=True)
 class Truth:
     """What every cloud of a scene is scored against: the mesh, the samples, which of them
-    are observable along the drive (S,) and which of those the sonar's field of view covers
+    are observable along the drive (S,), which of those the sonar's field of view covers and
+    their surface classes (:func:`~mitsonar.evaluation.coverage.surface_classes`)
     (O,) (module docstring)."""
 
     mesh: object
     samples: object
     observable: np.ndarray
     in_view: np.ndarray
+    classes: np.ndarray
 
 
 def thinned(points, seed: int) -> np.ndarray:
@@ -348,24 +320,31 @@ def thinned(points, seed: int) -> np.ndarray:
     return thinner.result()
 
 
-def completeness(points, truth: Truth) -> float:
-    """Share of the observable ground-truth samples with one of ``points`` (N, 3) [m] within
-    5 cm (:func:`mitsonar.evaluation.metrics.evaluate`'s completeness)."""
+def covered(points, truth: Truth) -> np.ndarray:
+    """(S_observable,) whether each observable ground-truth sample has one of ``points`` (N, 3)
+    [m] within 5 cm (:func:`mitsonar.evaluation.metrics.evaluate`'s completeness: the mean)."""
     samples = truth.samples.points[truth.observable]
     if not len(points):
-        return 0.0
+        return np.zeros(len(samples), bool)
     gap, _ = cKDTree(points).query(samples, distance_upper_bound=COMPLETENESS_THRESHOLD)
-    return float(np.mean(gap <= COMPLETENESS_THRESHOLD))
+    return gap <= COMPLETENESS_THRESHOLD
 
 
-def score(points, truth: Truth, seed: int) -> tuple[float, float, int]:
-    """(accuracy within 2 cm, completeness within 5 cm, thinned points) of world points (N, 3)
+def class_columns(prefix: str, flags, truth: Truth) -> dict:
+    """``<class>_<prefix>_pct`` columns: the share [%] of each surface class's observable
+    samples that ``flags`` (S_observable,) marks."""
+    return {f"{name}_{prefix}_pct": 100 * share
+            for name, share in covered_by_class(flags, truth.classes).items()}
+
+
+def score(points, truth: Truth, seed: int) -> tuple[float, np.ndarray, int]:
+    """(accuracy within 2 cm, :func:`covered` samples, thinned points) of world points (N, 3)
     [m] thinned to one per 1 cm voxel: each point's distance to the mesh computed once
-    (:func:`~mitsonar.evaluation.metrics.point_to_mesh`), :func:`completeness` once."""
+    (:func:`~mitsonar.evaluation.metrics.point_to_mesh`), the coverage once."""
     cloud = thinned(points, seed)
     distance = point_to_mesh(cloud, truth.mesh)[0]
     accuracy = float(np.mean(distance <= ACCURACY_THRESHOLD)) if len(cloud) else float("nan")
-    return accuracy, completeness(cloud, truth), len(cloud)
+    return accuracy, covered(cloud, truth), len(cloud)
 
 
 def scene_truth(scene, trajectory, config, settings: RunSettings) -> Truth:
@@ -375,20 +354,63 @@ def scene_truth(scene, trajectory, config, settings: RunSettings) -> Truth:
     samples = sample_surface(mesh, settings.spacing, settings.seed)
     driven = trajectory.driven(settings.duration)
     views = sensor_poses(trajectory.poses_at(np.arange(0.0, driven + 1e-9, VIEW_PERIOD)))
-    observable = visible_from(scene, samples.points, np.array([p.translation for p in views]))
+    heads = np.array([p.translation for p in views])
+    observable = visible_from(scene, samples.points, heads)
+    classes = surface_classes(mesh.triangle_normals()[samples.triangle[observable]],
+                              samples.points[observable, 2], float(np.median(heads[:, 2])))
     return Truth(mesh, samples, observable, in_view_along(
-        scene, samples.points[observable], trajectory, driven, config, IN_VIEW_PERIOD))
+        scene, samples.points[observable], trajectory, driven, config, IN_VIEW_PERIOD), classes)
 
 
-def lidar_completeness(scene, trajectory, truth: Truth, settings: RunSettings, bar) -> float:
-    """Completeness within 5 cm of the VLP-16 driving the same path at 10 Hz."""
+def lidar_covered(scene, trajectory, truth: Truth, settings: RunSettings, bar) -> np.ndarray:
+    """:func:`covered` by the VLP-16 driving the same path at 10 Hz."""
     thinner = VoxelThinner(THIN_VOXEL, seed=settings.seed)
     lidar = Lidar(scene)
     bar.reset(total=len(trajectory.times_at_rate(lidar.model.rate, settings.duration)))
     for _, points in sweep(lidar, trajectory, settings.duration, settings.seed):
         thinner.add(points)
         bar.update()
-    return completeness(thinner.result(), truth)
+    return covered(thinner.result(), truth)
+
+
+def scan_rows(name: str, preset: str, scan: str, sim: Simulated, truth: Truth, lidar_flags,
+              settings: RunSettings, driven: float) -> list[dict]:
+    """The chart's rows of one scan's simulation ``sim`` (a row per point set), scored against
+    ``truth`` beside the VLP-16's :func:`covered` samples ``lidar_flags``; ``driven`` [s]."""
+    lidar = float(np.mean(lidar_flags))
+    rows = []
+    for echoes, frames in sim.points.items():
+        points = np.concatenate(frames)
+        accuracy, flags, kept = score(points, truth, settings.seed)
+        covers = float(np.mean(flags))
+        half = np.mean(covered(thinned(np.concatenate(frames[::2]), settings.seed), truth))
+        # a set named after its scan is a strategy; others are the scan's echo sets
+        strategy = echoes if echoes.startswith(scan) else f"{scan}_{echoes}"
+        per_frame = len(points) / sim.frames_simulated
+        rows.append({
+            "scene": name, "strategy": strategy, "preset": preset,
+            "scan": scan.split("_")[0],  # ofdm_image, ofdm_trusted: OFDM frames
+            "echoes": SINGLE_SETS.get(scan, echoes), "frame_rate_hz": sim.frame_rate,
+            "points_per_frame": per_frame, "points_per_s": per_frame * sim.frame_rate,
+            "points_per_s_vs_today": per_frame * sim.frame_rate / TODAY_POINTS_PER_S[preset],
+            "accuracy_pct": 100 * accuracy, "completeness_5cm_pct": 100 * covers,
+            "completeness_5cm_half_pct": 100 * half, "vlp16_completeness_5cm_pct": 100 * lidar,
+            "completeness_vs_vlp16": covers / lidar,
+            "sonar_in_view_pct": 100 * float(np.mean(truth.in_view)),
+            "points": len(points), "thinned_points": kept,
+            "frames_simulated": sim.frames_simulated, "frames_total": sim.frames_total,
+            "stride": settings.stride, "driven_s": driven, "sim_seconds": sim.seconds,
+            "sim_seconds_per_frame": sim.seconds / sim.frames_simulated,
+            **{f"{c}_share_pct": 100 * np.mean(truth.classes == k)
+               for k, c in enumerate(SURFACE_CLASSES)},
+            **class_columns("in_view", truth.in_view, truth),
+            **class_columns("vlp16", lidar_flags, truth),
+            **class_columns("completeness", flags, truth)})
+        print(f"{name} {preset} {strategy}: {per_frame:.1f} points/frame, "
+              f"{per_frame * sim.frame_rate:.0f} points/s, {100 * accuracy:.1f} % within 2 cm, "
+              f"completeness {100 * covers:.1f} % (5 cm), "
+              f"{sim.seconds / sim.frames_simulated:.2f} s/frame", file=sys.stderr)
+    return rows
 
 
 def run_scene(name: str, presets, scans, settings: RunSettings) -> list[dict]:
@@ -405,11 +427,11 @@ def run_scene(name: str, presets, scans, settings: RunSettings) -> list[dict]:
         scene = first.scene
         bar.set_description(f"{name}: ground truth")
         truth = scene_truth(scene, trajectory, first.config, settings)
-        in_view = float(np.mean(truth.in_view))
         bar.set_description(f"{name}: VLP-16 at 10 Hz")
-        lidar = lidar_completeness(scene, trajectory, truth, settings, bar)
-        print(f"{name}: VLP-16 completeness within 5 cm {100 * lidar:.1f} %, in the sonar's "
-              f"view {100 * in_view:.1f} % ({driven:.1f} s driven)", file=sys.stderr)
+        lidar_flags = lidar_covered(scene, trajectory, truth, settings, bar)
+        print(f"{name}: VLP-16 completeness within 5 cm {100 * np.mean(lidar_flags):.1f} %, in "
+              f"the sonar's view {100 * np.mean(truth.in_view):.1f} % ({driven:.1f} s driven)",
+              file=sys.stderr)
         for preset, sonar in sonars.items():
             for scan in scans:
                 if scan in CHIRP_SCANS and preset not in CHIRP_SCANS[scan][0]:
@@ -422,114 +444,8 @@ def run_scene(name: str, presets, scans, settings: RunSettings) -> list[dict]:
 
                 bar.reset()
                 sim = simulate(scan, sonar, trajectory, settings, step, path, preset)
-                for echoes, frames in sim.points.items():
-                    points = np.concatenate(frames)
-                    accuracy, covered, kept = score(points, truth, settings.seed)
-                    half = completeness(thinned(np.concatenate(frames[::2]),
-                                                settings.seed), truth)
-                    # a set named after its scan is a strategy; others are the scan's echo sets
-                    strategy = echoes if echoes.startswith(scan) else f"{scan}_{echoes}"
-                    echoes = SINGLE_SETS.get(scan, echoes)
-                    scan_kind = scan.split("_")[0]  # ofdm_image, ofdm_trusted: OFDM frames
-                    per_frame = len(points) / sim.frames_simulated
-                    rows.append({
-                        "scene": name, "strategy": strategy, "preset": preset,
-                        "scan": scan_kind,
-                        "echoes": echoes, "frame_rate_hz": sim.frame_rate,
-                        "points_per_frame": per_frame,
-                        "points_per_s": per_frame * sim.frame_rate,
-                        "points_per_s_vs_today":
-                            per_frame * sim.frame_rate / TODAY_POINTS_PER_S[preset],
-                        "accuracy_pct": 100 * accuracy,
-                        "completeness_5cm_pct": 100 * covered,
-                        "completeness_5cm_half_pct": 100 * half,
-                        "vlp16_completeness_5cm_pct": 100 * lidar,
-                        "completeness_vs_vlp16": covered / lidar,
-                        "sonar_in_view_pct": 100 * in_view,
-                        "points": len(points), "thinned_points": kept,
-                        "frames_simulated": sim.frames_simulated,
-                        "frames_total": sim.frames_total, "stride": settings.stride,
-                        "driven_s": driven, "sim_seconds": sim.seconds,
-                        "sim_seconds_per_frame": sim.seconds / sim.frames_simulated})
-                    print(f"{name} {preset} {strategy}: {per_frame:.1f} points/frame, "
-                          f"{per_frame * sim.frame_rate:.0f} points/s, {100 * accuracy:.1f} % "
-                          f"within 2 cm, completeness {100 * covered:.1f} % (5 cm), "
-                          f"{sim.seconds / sim.frames_simulated:.2f} s/frame", file=sys.stderr)
+                rows += scan_rows(name, preset, scan, sim, truth, lidar_flags, settings, driven)
     return rows
-
-
-def markdown(rows) -> list[str]:
-    """The chart as a Markdown table (fractions in %)."""
-    md = ["| scene | preset | strategy | frames/s | frames simulated | points/frame | points/s | "
-          "x today | within 2 cm % | completeness 5 cm % | VLP-16 5 cm % | in sonar's view % | "
-          "sim s/frame |",
-          "|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
-    md += [f"| {r['scene']} | {r['preset']} | {r['strategy']} | {r['frame_rate_hz']:.2f} | "
-           f"{r['frames_simulated']} of {r['frames_total']} | {r['points_per_frame']:.1f} | "
-           f"{r['points_per_s']:.0f} | {r['points_per_s_vs_today']:.2f} | "
-           f"{r['accuracy_pct']:.1f} | {r['completeness_5cm_pct']:.1f} | "
-           f"{r['vlp16_completeness_5cm_pct']:.1f} | {r['sonar_in_view_pct']:.1f} | "
-           f"{r['sim_seconds_per_frame']:.2f} |"
-           for r in rows]
-    return md
-
-
-def save_figure(path: Path, rows) -> None:
-    """Points per second against accuracy (top) and completeness (bottom, log scale; values under
-    ``COMPLETENESS_FLOOR`` drawn at it), a column per scene, a colour per preset (the physical
-    ones open); issue 28's references dotted and goals dashed in each preset's colour (the
-    physical default's and broadband's coincide), the VLP-16's completeness and half of it (the
-    goal) in black, the share in the sonar's field of view (the ceiling) in grey."""
-    plt = _pyplot()
-    scenes = list(dict.fromkeys(r["scene"] for r in rows))
-    presets = list(dict.fromkeys(r["preset"] for r in rows))
-    fig, axes = plt.subplots(2, len(scenes), figsize=(6.5 * len(scenes), 9.5), squeeze=False)
-    for col, scene in enumerate(scenes):
-        mine = [r for r in rows if r["scene"] == scene]
-        top, bottom = axes[0, col], axes[1, col]
-        for r in mine:
-            colour = COLOURS[r["preset"]]
-            style = dict(marker=MARKERS[r["strategy"]], s=70, color=colour,
-                         facecolors=colour if r["preset"] == "paper" else "none")
-            x = max(r["points_per_s"], 1.0)
-            top.scatter(x, r["accuracy_pct"], **style)
-            bottom.scatter(x, max(r["completeness_5cm_pct"], COMPLETENESS_FLOOR), **style)
-        lidar = mine[0]["vlp16_completeness_5cm_pct"]
-        bottom.axhline(lidar, color="k", lw=1.2, label=f"VLP-16 at 10 Hz ({lidar:.1f} %)")
-        bottom.axhline(lidar / 2, color="k", lw=1, ls=":", label="half the VLP-16's (goal)")
-        in_view = mine[0]["sonar_in_view_pct"]
-        bottom.axhline(in_view, color="grey", lw=1.2, ls="-.",
-                       label=f"in the sonar's field of view ({in_view:.1f} %, its ceiling)")
-        for preset in presets:
-            colour, today = COLOURS[preset], TODAY_POINTS_PER_S[preset]
-            times, accuracy = GOALS[preset]
-            for ax in (top, bottom):
-                ax.axvline(today, color=colour, ls=":", lw=1)
-                ax.axvline(times * today, color=colour, ls="--", lw=1)
-            top.axhline(100 * accuracy, color=colour, ls="--", lw=1,
-                        label=f"{preset}: today {today:.0f} points/s (dotted), goal {times:g}x "
-                              f"and {100 * accuracy:.0f} % within 2 cm (dashed)")
-        for ax, label in ((top, "points within 2 cm [%]"),
-                          (bottom, "completeness within 5 cm [%], simulated frames")):
-            ax.set_xscale("log")
-            ax.set_xlabel("points per second of driving")
-            ax.set_ylabel(label)
-            ax.grid(True, which="both", lw=0.3, alpha=0.5)
-        top.set_ylim(40, 101)
-        bottom.set_yscale("log")
-        bottom.set_ylim(COMPLETENESS_FLOOR / 1.5, 100)
-        top.set_title(f"{scene}: 1 frame in {mine[0]['stride']} simulated")
-        top.legend(loc="lower left", fontsize=7)
-        bottom.legend(loc="center left", fontsize=8)
-    handles = [plt.Line2D([], [], marker=m, ls="", color="grey",
-                          label=s.replace("_", ", ", 1).replace("_", " "))
-               for s, m in MARKERS.items()]
-    handles += [plt.Line2D([], [], marker="o", ls="", color=COLOURS[p], label=p,
-                           markerfacecolor=COLOURS[p] if p == "paper" else "none")
-                for p in presets]
-    fig.legend(handles=handles, loc="lower center", ncol=6, fontsize=8)
-    fig.tight_layout(rect=(0, 0.08, 1, 1))
-    save_png(fig, path)
 
 
 def _subset(text: str, known, option: str) -> list[str]:
@@ -591,8 +507,9 @@ def main(argv=None) -> int:
     md = markdown(rows)
     write_table(args.out / "imaging.csv", rows, md)
     save_figure(args.out / "imaging.png", rows)
+    save_surface_figure(args.out / "imaging_surfaces.png", rows)
     print("\n".join(md))
-    print(f"Wrote {args.out}/imaging.csv, imaging.md and imaging.png")
+    print(f"Wrote {args.out}/imaging.csv, imaging.md, imaging.png and imaging_surfaces.png")
     return 0
 
 

@@ -229,6 +229,7 @@ def test_imaging_quick(tmp_path):
     sets nest (first within all within cells), and so do the imaging trust thresholds' points;
     the chirp images run where the preset's transducers pass the sweep, a sweep's length later."""
     import mitsonar
+    from mitsonar.evaluation.coverage import SURFACE_CLASSES
     from mitsonar.sensors.ofdm_sonar import OfdmSonar
 
     run_experiment("imaging", "--quick", "--out", str(tmp_path))
@@ -266,6 +267,15 @@ def test_imaging_quick(tmp_path):
         assert 0 < number["vlp16_completeness_5cm_pct"] <= 100
         assert number["frames_simulated"] == number["frames_total"] >= 1  # stride 1
         assert number["frame_rate_hz"] == pytest.approx(1 / period, rel=1e-5)
+        # by surface class: the shares tile the observable surface, and each whole figure is
+        # its classes' completeness weighted by their shares
+        shares = {c: number[f"{c}_share_pct"] / 100 for c in SURFACE_CLASSES}
+        assert sum(shares.values()) == pytest.approx(1.0)
+        for whole, part in (("completeness_5cm_pct", "completeness"),
+                            ("vlp16_completeness_5cm_pct", "vlp16"),
+                            ("sonar_in_view_pct", "in_view")):
+            assert sum(w * number[f"{c}_{part}_pct"] for c, w in shares.items() if w > 0) \
+                == pytest.approx(number[whole], abs=1e-3), (preset, strategy, whole)
     for preset in presets:
         for scan in ("sequential", "ofdm"):
             points = [int(rows[preset, f"{scan}_{e}"]["points"]) for e in ("first", "all", "cells")]
@@ -279,7 +289,9 @@ def test_imaging_quick(tmp_path):
         points = [int(rows[preset, f"{scan}{names[t]}"]["points"]) for t in sorted(names)]
         assert points == sorted(points, reverse=True), (preset, scan, points)
     assert (tmp_path / "imaging.png").stat().st_size > 30_000
+    assert (tmp_path / "imaging_surfaces.png").stat().st_size > 10_000
     assert "completeness 5 cm" in (tmp_path / "imaging.md").read_text()
+    assert "vertical: share / in view / VLP-16 / sonar %" in (tmp_path / "imaging.md").read_text()
 
 
 def test_imaging_trust_sets_keep_each_thresholds_points():

@@ -16,10 +16,18 @@ from mitsonar.frames import Pose
 from mitsonar.physics.beampattern import in_fov
 from mitsonar.plots import _pyplot, save_png
 from mitsonar.sensors.trajectory import Trajectory
-from mitsonar.validation import check_positive
+from mitsonar.validation import check_finite, check_positive
 
 #: Poses are sampled this often to measure the distance driven [s].
 DISTANCE_STEP = 0.05
+#: Classes of ground-truth surface (:func:`surface_classes`): horizontal surfaces below the
+#: sensor head (floor, desk and seat tops: seen from above), horizontal ones above it (ceiling,
+#: lamps: seen from below, or not at all by a forward-looking sensor), vertical ones (walls,
+#: the sides of furniture) and the rest.
+SURFACE_CLASSES = ("below", "above", "vertical", "sloped")
+#: A surface is horizontal (vertical) where its normal lies within this angle of the vertical
+#: (of the horizontal plane) [rad].
+SURFACE_CLASS_TOLERANCE = np.radians(25.0)
 
 
 def covered_fraction(points, sample_points, threshold: float) -> float:
@@ -36,6 +44,31 @@ def covered_fraction(points, sample_points, threshold: float) -> float:
         return 0.0
     gap, _ = cKDTree(p).query(s, distance_upper_bound=threshold)
     return float(np.mean(gap <= threshold))
+
+
+def surface_classes(normals, heights, sensor_height: float) -> np.ndarray:
+    """(M,) index into :data:`SURFACE_CLASSES` of surface samples with unit ``normals`` (M, 3)
+    (world frame, z up; either orientation) at ``heights`` (M,) [m], the sensor head at
+    ``sensor_height`` [m]."""
+    nz = np.abs(np.asarray(normals, dtype=float).reshape(-1, 3)[:, 2])
+    z = np.asarray(heights, dtype=float).reshape(-1)
+    if len(nz) != len(z):
+        raise ValueError(f"surface_classes: {len(nz)} normals but {len(z)} heights")
+    check_finite("sensor height [m]", sensor_height)
+    horizontal = nz >= np.cos(SURFACE_CLASS_TOLERANCE)
+    vertical = nz <= np.sin(SURFACE_CLASS_TOLERANCE)
+    return np.select([horizontal & (z < sensor_height), horizontal, vertical], [0, 1, 2], 3)
+
+
+def covered_by_class(covered, classes) -> dict:
+    """Per name of :data:`SURFACE_CLASSES`: the share of the samples of that class (``classes``
+    (M,), :func:`surface_classes`) that ``covered`` (M,) bool marks (NaN where it has none)."""
+    hit = np.asarray(covered, dtype=bool).reshape(-1)
+    cls = np.asarray(classes).reshape(-1)
+    if len(hit) != len(cls):
+        raise ValueError(f"covered_by_class: {len(hit)} flags but {len(cls)} classes")
+    return {name: float(np.mean(hit[cls == k])) if np.any(cls == k) else float("nan")
+            for k, name in enumerate(SURFACE_CLASSES)}
 
 
 def in_sensor_view(scene, points, poses: list[Pose], fov_horizontal: float, fov_vertical: float,

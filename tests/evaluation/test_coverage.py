@@ -4,8 +4,9 @@ import numpy as np
 import pytest
 
 import mitsonar
-from mitsonar.evaluation.coverage import (Curve, covered_fraction, distance_driven,
-                                          in_sensor_view, save_completeness_figure)
+from mitsonar.evaluation.coverage import (SURFACE_CLASSES, Curve, covered_by_class,
+                                          covered_fraction, distance_driven, in_sensor_view,
+                                          save_completeness_figure, surface_classes)
 from mitsonar.evaluation.metrics import evaluate, sample_surface
 from mitsonar.evaluation.topviews import Panel, SceneView, save_top_views
 from mitsonar.scene.mesh import scene_mesh
@@ -25,6 +26,32 @@ def test_covered_fraction_is_the_metrics_completeness(scene_file):
     assert covered_fraction(half, samples.points, 0.005) == 0.0  # 1 cm off: beyond 5 mm
     assert covered_fraction(np.zeros((0, 3)), samples.points, 0.02) == 0.0
     assert np.isnan(covered_fraction(half, np.zeros((0, 3)), 0.02))
+
+
+def test_surface_classes_by_normal_and_height():
+    """Horizontal within 25 deg of the vertical (either orientation of the normal), split at
+    the sensor head's height; vertical within 25 deg of the horizontal plane; sloped between."""
+    tilt = np.radians([0.0, 180.0, 24.0, 26.0, 45.0, 64.0, 66.0, 90.0, 114.0, 0.0])
+    normals = np.column_stack([np.sin(tilt), np.zeros_like(tilt), np.cos(tilt)])
+    heights = np.array([0.0, 0.0, 0.3, 0.3, 1.0, 1.0, 1.0, 1.0, 1.0, 2.5])
+    names = [SURFACE_CLASSES[k] for k in surface_classes(normals, heights, sensor_height=0.5)]
+    assert names == ["below", "below", "below", "sloped", "sloped", "sloped", "vertical",
+                     "vertical", "vertical", "above"]
+    with pytest.raises(ValueError, match="2 heights"):
+        surface_classes(normals, heights[:2], 0.5)
+
+
+def test_covered_by_class_weights_back_to_the_whole():
+    classes = np.array([0, 0, 0, 0, 2, 2, 3])
+    covered = np.array([1, 1, 0, 0, 1, 0, 0], bool)
+    share = covered_by_class(covered, classes)
+    assert share["below"] == 0.5 and share["vertical"] == 0.5 and share["sloped"] == 0.0
+    assert np.isnan(share["above"])  # no ceiling samples: not 0 %
+    weights = {name: np.mean(classes == k) for k, name in enumerate(SURFACE_CLASSES)}
+    total = sum(weights[n] * share[n] for n in SURFACE_CLASSES if weights[n] > 0)
+    assert total == pytest.approx(covered.mean())
+    with pytest.raises(ValueError, match="6 classes"):
+        covered_by_class(covered, classes[:6])
 
 
 def test_in_sensor_view_is_the_field_of_view_in_range_and_in_sight(scene_file):
