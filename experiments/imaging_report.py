@@ -143,6 +143,7 @@ def save_surface_figure(path: Path, rows) -> None:
                 "VLP-16 at 10 Hz": "vlp16",
                 f"{best['strategy']} ({best['preset']})": "completeness"}
         x = np.arange(len(SURFACE_CLASSES))
+        top = 0.0
         for k, (label, part) in enumerate(bars.items()):
             share = np.array([best[f"{c}_share_pct"] for c in SURFACE_CLASSES])
             fraction = 1.0 if part is None else np.nan_to_num(
@@ -150,6 +151,8 @@ def save_surface_figure(path: Path, rows) -> None:
             value = share * fraction
             ax.bar(x + 0.2 * (k - 1.5), value, 0.2, color=("0.85", "0.55", "k", "C0")[k],
                    label=f"{label}: {value.sum():.1f} %")
+            top = max(top, float(value.max()))
+        ax.set_ylim(0, 1.45 * top)  # room for the legend above the bars
         ax.set_xticks(x, [CLASS_LABELS.get(c, c) for c in SURFACE_CLASSES], fontsize=8)
         ax.set_ylabel("share of the observable surface [%]")
         ax.set_title(f"{scene}: 1 frame in {int(best['stride'])} simulated", fontsize=10)
