@@ -107,6 +107,10 @@ REPEATED_SCANS = {"ofdm": "repeated", "chirp": "repeated-chirp",
                   "chirp_wide": "repeated-chirp-wide",
                   "chirp_wide_bands": "repeated-chirp-wide-bands",
                   "chirp_wide_defocused": "repeated-chirp-wide-defocused"}
+#: The images' points rule and transmission of the repeated scans that are not
+#: ``(ImagingSettings(), TransmitSettings())``.
+REPEATED_IMAGES = {"chirp_wide_bands": (WIDE_SWEEP_SETTINGS, TransmitSettings()),
+                   "chirp_wide_defocused": (WIDE_SWEEP_SETTINGS, DEFOCUSED)}
 
 
 @dataclass(frozen=True)
@@ -205,14 +209,13 @@ def sonar_run(scene, mode: str, preset: str, trajectory, settings: RunSettings, 
         config = replace(config, transducer=mitsonar.Transducer.broadband(),
                          pulse=mitsonar.Chirp() if chirp else config.pulse)
     sonar = mitsonar.Sonar(scene, config)
+    imaging, transmit = REPEATED_IMAGES.get(settings.repeated_scan,
+                                            (ImagingSettings(), TransmitSettings()))
     spec = RepeatedMapSpec(duration=settings.duration, scan_step=settings.step, echoes="all",
                            dither=settings.dither,
                            seed=settings.seed, voxels=VoxelMapSettings(voxel_size=MAP_VOXEL),
                            scan="imaging" if chirp else "ofdm",
-                           imaging=WIDE_SWEEP_SETTINGS if settings.repeated_scan in (
-                               "chirp_wide_bands", "chirp_wide_defocused") else ImagingSettings(),
-                           transmit=DEFOCUSED if settings.repeated_scan == "chirp_wide_defocused"
-                           else TransmitSettings())
+                           imaging=imaging, transmit=transmit)
     scanned, camera = scan_repeated(sonar, trajectory, spec, progress, settings.workers)
     starts = np.array([s.start_time for s in scanned])
     clouds = [build_voxel_map([s for s, t0 in zip(scanned, starts) if t0 <= t + 1e-9], camera,

@@ -373,11 +373,24 @@ def lidar_covered(scene, trajectory, truth: Truth, settings: RunSettings, bar) -
     return covered(thinner.result(), truth)
 
 
-def scan_rows(name: str, preset: str, scan: str, sim: Simulated, truth: Truth, lidar_flags,
+def scene_columns(truth: Truth, lidar_flags) -> dict:
+    """The columns every row of a scene shares, computed once: the VLP-16's completeness (its
+    :func:`covered` samples ``lidar_flags``) and the sonar's view, whole [%] and per surface
+    class (``<class>_share_pct``, ``<class>_in_view_pct``, ``<class>_vlp16_pct``)."""
+    return {"vlp16_completeness_5cm_pct": 100 * float(np.mean(lidar_flags)),
+            "sonar_in_view_pct": 100 * float(np.mean(truth.in_view)),
+            **{f"{c}_share_pct": 100 * np.mean(truth.classes == k)
+               for k, c in enumerate(SURFACE_CLASSES)},
+            **class_columns("in_view", truth.in_view, truth),
+            **class_columns("vlp16", lidar_flags, truth)}
+
+
+def scan_rows(name: str, preset: str, scan: str, sim: Simulated, truth: Truth, shared: dict,
               settings: RunSettings, driven: float) -> list[dict]:
     """The chart's rows of one scan's simulation ``sim`` (a row per point set), scored against
-    ``truth`` beside the VLP-16's :func:`covered` samples ``lidar_flags``; ``driven`` [s]."""
-    lidar = float(np.mean(lidar_flags))
+    ``truth`` beside the scene's :func:`scene_columns` ``shared``; ``driven`` [s]."""
+    lidar = shared["vlp16_completeness_5cm_pct"] / 100
+    by_class = {k: v for k, v in shared.items() if k.startswith(SURFACE_CLASSES)}
     rows = []
     for echoes, frames in sim.points.items():
         points = np.concatenate(frames)
@@ -394,18 +407,15 @@ def scan_rows(name: str, preset: str, scan: str, sim: Simulated, truth: Truth, l
             "points_per_frame": per_frame, "points_per_s": per_frame * sim.frame_rate,
             "points_per_s_vs_today": per_frame * sim.frame_rate / TODAY_POINTS_PER_S[preset],
             "accuracy_pct": 100 * accuracy, "completeness_5cm_pct": 100 * covers,
-            "completeness_5cm_half_pct": 100 * half, "vlp16_completeness_5cm_pct": 100 * lidar,
+            "completeness_5cm_half_pct": 100 * half,
+            "vlp16_completeness_5cm_pct": shared["vlp16_completeness_5cm_pct"],
             "completeness_vs_vlp16": covers / lidar,
-            "sonar_in_view_pct": 100 * float(np.mean(truth.in_view)),
+            "sonar_in_view_pct": shared["sonar_in_view_pct"],
             "points": len(points), "thinned_points": kept,
             "frames_simulated": sim.frames_simulated, "frames_total": sim.frames_total,
             "stride": settings.stride, "driven_s": driven, "sim_seconds": sim.seconds,
             "sim_seconds_per_frame": sim.seconds / sim.frames_simulated,
-            **{f"{c}_share_pct": 100 * np.mean(truth.classes == k)
-               for k, c in enumerate(SURFACE_CLASSES)},
-            **class_columns("in_view", truth.in_view, truth),
-            **class_columns("vlp16", lidar_flags, truth),
-            **class_columns("completeness", flags, truth)})
+            **by_class, **class_columns("completeness", flags, truth)})
         print(f"{name} {preset} {strategy}: {per_frame:.1f} points/frame, "
               f"{per_frame * sim.frame_rate:.0f} points/s, {100 * accuracy:.1f} % within 2 cm, "
               f"completeness {100 * covers:.1f} % (5 cm), "
@@ -428,10 +438,10 @@ def run_scene(name: str, presets, scans, settings: RunSettings) -> list[dict]:
         bar.set_description(f"{name}: ground truth")
         truth = scene_truth(scene, trajectory, first.config, settings)
         bar.set_description(f"{name}: VLP-16 at 10 Hz")
-        lidar_flags = lidar_covered(scene, trajectory, truth, settings, bar)
-        print(f"{name}: VLP-16 completeness within 5 cm {100 * np.mean(lidar_flags):.1f} %, in "
-              f"the sonar's view {100 * np.mean(truth.in_view):.1f} % ({driven:.1f} s driven)",
-              file=sys.stderr)
+        shared = scene_columns(truth, lidar_covered(scene, trajectory, truth, settings, bar))
+        print(f"{name}: VLP-16 completeness within 5 cm "
+              f"{shared['vlp16_completeness_5cm_pct']:.1f} %, in the sonar's view "
+              f"{shared['sonar_in_view_pct']:.1f} % ({driven:.1f} s driven)", file=sys.stderr)
         for preset, sonar in sonars.items():
             for scan in scans:
                 if scan in CHIRP_SCANS and preset not in CHIRP_SCANS[scan][0]:
@@ -444,7 +454,7 @@ def run_scene(name: str, presets, scans, settings: RunSettings) -> list[dict]:
 
                 bar.reset()
                 sim = simulate(scan, sonar, trajectory, settings, step, path, preset)
-                rows += scan_rows(name, preset, scan, sim, truth, lidar_flags, settings, driven)
+                rows += scan_rows(name, preset, scan, sim, truth, shared, settings, driven)
     return rows
 
 

@@ -143,9 +143,9 @@ def save_surface_figure(path: Path, rows) -> None:
                 "VLP-16 at 10 Hz": "vlp16",
                 f"{best['strategy']} ({best['preset']})": "completeness"}
         x = np.arange(len(SURFACE_CLASSES))
+        share = np.array([best[f"{c}_share_pct"] for c in SURFACE_CLASSES])
         top = 0.0
         for k, (label, part) in enumerate(bars.items()):
-            share = np.array([best[f"{c}_share_pct"] for c in SURFACE_CLASSES])
             fraction = 1.0 if part is None else np.nan_to_num(
                 [best[f"{c}_{part}_pct"] / 100 for c in SURFACE_CLASSES])
             value = share * fraction

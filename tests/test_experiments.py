@@ -118,10 +118,12 @@ def test_comparison_quick(tmp_path):
 @pytest.mark.slow
 @pytest.mark.parametrize("scan,preset,mode", [
     ("chirp", "default", "repeated-chirp"), ("chirp_wide", "paper", "repeated-chirp-wide"),
-    ("chirp_wide_bands", "paper", "repeated-chirp-wide-bands")])
+    ("chirp_wide_bands", "paper", "repeated-chirp-wide-bands"),
+    ("chirp_wide_defocused", "paper", "repeated-chirp-wide-defocused")])
 def test_comparison_repeated_mode_with_chirp_images_quick(tmp_path, scan, preset, mode):
-    """``--repeated-scan chirp`` (30-50 kHz), ``chirp_wide`` (20-80 kHz) and ``chirp_wide_bands``
-    (its trust rule read in sub-bands): repeated mode maps from single-ping images driven by the
+    """``--repeated-scan chirp`` (30-50 kHz), ``chirp_wide`` (20-80 kHz), ``chirp_wide_bands``
+    (its trust rule read in sub-bands) and ``chirp_wide_defocused`` (those sent by the whole array
+    defocused): repeated mode maps from single-ping images driven by the
     sweep; the row reads its mode, its map is not empty and stays within the sonar's field of
     view."""
     run_experiment("comparison", "--quick", "--scenes", "workshop", "--presets", preset,
