@@ -270,7 +270,8 @@ def test_imaging_quick(tmp_path):
         assert number["frames_simulated"] == number["frames_total"] >= 1  # stride 1
         assert number["frame_rate_hz"] == pytest.approx(1 / period, rel=1e-5)
         # by surface class: the shares tile the observable surface, and each whole figure is
-        # its classes' completeness weighted by their shares
+        # its classes' completeness weighted by their shares (within the CSV's 6 significant
+        # digits per value: 1e-3 of a percent)
         shares = {c: number[f"{c}_share_pct"] / 100 for c in SURFACE_CLASSES}
         assert sum(shares.values()) == pytest.approx(1.0)
         for whole, part in (("completeness_5cm_pct", "completeness"),
