@@ -26,7 +26,7 @@ instead (six per camera image, each point registered with its image's pose; docs
 ``chirp_wide`` drives them with RTIS's 20-80 kHz sweep behind the ``paper`` preset's ideal
 transducers (``SonarConfig.with_wide_sweep``; the broadband transducers pass 20 kHz, so ``paper``
 only), ``chirp_wide_bands`` the same with the images' trust rule read in three sub-bands and
-their points placed at its peak (``mitsonar.signal.imaging.WIDE_SWEEP_SETTINGS``),
+their points placed at its peak (``mitsonar.signal.imaging_settings.WIDE_SWEEP_SETTINGS``),
 ``chirp_wide_defocused`` those sent by the whole array defocused (``imaging_sonar.DEFOCUSED``).
 
 Scoring (:func:`mitsonar.evaluation.metrics.evaluate`, 2 cm threshold). Every cloud is first
@@ -79,7 +79,7 @@ from mitsonar.recon.repeated import RepeatedMapSpec, build_voxel_map, scan_repea
 from mitsonar.recon.surfels import SurfelSettings, map_surfels_along
 from mitsonar.recon.surfels.map import build_map
 from mitsonar.recon.voxelmap import VoxelMapSettings
-from mitsonar.signal.imaging import WIDE_SWEEP_SETTINGS, ImagingSettings
+from mitsonar.signal.imaging_settings import WIDE_SWEEP_SETTINGS, ImagingSettings
 from mitsonar.scene.mesh import sample_surface, scene_mesh
 from mitsonar.sensors.baselines import DepthCamera, Lidar, sweep
 from mitsonar.sensors.imaging_sonar import DEFOCUSED, TransmitSettings

@@ -48,7 +48,7 @@ from mitsonar.sensors.ofdm_sonar import Frame, OfdmSonar, pose_along
 from mitsonar.sensors.sonar import Sonar, beam_seed
 from mitsonar.sensors.trajectory import Trajectory
 from mitsonar.signal.detection import ECHO_MODES, OFF_BEAM_MODES, DetectionSettings
-from mitsonar.signal.imaging import ImagingSettings
+from mitsonar.signal.imaging_settings import ImagingSettings
 from mitsonar.validation import check_image_width, check_positive, check_positive_integer
 from mitsonar.recon.voxelmap import VoxelMap, VoxelMapSettings, colourise
 
@@ -100,7 +100,7 @@ class RepeatedMapSpec:
             only.
         transmit: the images' wide transmission and its trace.
         imaging: the images' grid and points rule (e.g. the trust rule read in sub-bands of a
-            wide sweep, :class:`~mitsonar.signal.imaging.ImagingSettings`).
+            wide sweep, :class:`~mitsonar.signal.imaging_settings.ImagingSettings`).
     """
 
     frames: int | None = None

@@ -47,7 +47,8 @@ from mitsonar.frames import Pose, direction_from_fov_angles
 from mitsonar.sensors.sonar import Scan, Sonar
 from mitsonar.signal.band import Recording
 from mitsonar.signal.detection import Echoes
-from mitsonar.signal.imaging import ImagePoints, ImagingSettings, ReceiveImager
+from mitsonar.signal.imaging import ReceiveImager
+from mitsonar.signal.imaging_settings import ImagePoints, ImagingSettings
 from mitsonar.trace.tracer import AcousticTracer, TraceSettings
 from mitsonar.validation import check_range
 
@@ -180,10 +181,10 @@ class Image:
         amplitude: (P,) image value at each point [Pa].
         snr: (P,) amplitude over the RMS noise envelope.
         coherence: (P,) share of the channels' power one plane wave from each point's direction
-            explains (the trust criterion, :class:`~mitsonar.signal.imaging.ImagingSettings`
+            explains (the trust criterion, :class:`~mitsonar.signal.imaging_settings.ImagingSettings`
             ``min_coherence``).
         passed: cells of the field of view passing each rule in turn
-            (:class:`~mitsonar.signal.imaging.ImagePoints`).
+            (:class:`~mitsonar.signal.imaging_settings.ImagePoints`).
         directions: (D, 3) the receive directions of the grid over the transmitted cone
             (:class:`~mitsonar.signal.imaging.ReceiveImager`; zeros in its corners).
         envelopes: (D, N) the image [Pa] (None unless asked for).

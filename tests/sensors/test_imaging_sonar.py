@@ -13,7 +13,7 @@ from mitsonar.frames import direction_from_fov_angles
 from mitsonar.scene.mesh import scene_mesh
 from mitsonar.scene.xml import material_xml, rectangle_xml, sphere_xml, write_scene
 from mitsonar.sensors.imaging_sonar import ImagingSonar, TransmitSettings
-from mitsonar.signal.imaging import ImagingSettings
+from mitsonar.signal.imaging_settings import ImagingSettings
 from mitsonar.trace.paths import Paths
 from mitsonar.trace.tracer import AcousticTracer
 
