@@ -182,13 +182,10 @@ class Simulated:
 def imaging_trust_sets(image, scan: str = "imaging") -> dict:
     """Points (N, 3) [m] of one image of ``scan`` per imaging strategy: ``<scan>`` those of the
     default trust threshold, ``<scan>_trust_<t>`` those of each threshold t of
-    :data:`IMAGING_TRUST` (the image made with the lowest of them; each threshold rising off
-    broadside as the scan's rule says, ``ImagingSettings.trust_threshold``)."""
-    rule = TRUST.get(scan, ImagingSettings())
-    return {scan if t == rule.min_coherence else f"{scan}_trust_{t:g}":
-            image.points_world[image.coherence >= replace(rule, min_coherence=t)
-                               .trust_threshold(image.direction)]
-            for t in (rule.min_coherence,) + IMAGING_TRUST}
+    :data:`IMAGING_TRUST` (the image made with the lowest of them)."""
+    default = TRUST.get(scan, ImagingSettings()).min_coherence
+    return {scan if t == default else f"{scan}_trust_{t:g}":
+            image.points_world[image.coherence >= t] for t in (default,) + IMAGING_TRUST}
 
 
 def echo_sets(echoes, points_world) -> dict:

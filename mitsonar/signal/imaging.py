@@ -395,11 +395,6 @@ class ReceiveImager:
             else self._train_samples(sub, row, k, apparent)
         length = self.c * (start_time + sample / fs)
         points, arrival = place(self.geometry, length, apparent, self._transmit_centre)
-        if s.coherence_slope > 0:  # the threshold at each point's arrival direction
-            keep = coherence >= s.trust_threshold(arrival)
-            points, arrival, length, value, coherence, d, k = (
-                x[keep] for x in (points, arrival, length, value, coherence, d, k))
-            passed["trusted"] = len(d)
         snr = value / self.noise_level if self.noise_level > 0 else np.full(len(value), np.inf)
         return ImagePoints(points, arrival, length, value, snr, coherence,
                            np.stack([d, k], axis=1), passed)

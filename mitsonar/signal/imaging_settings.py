@@ -34,10 +34,6 @@ class ImagingSettings:
         coherence_peak: place each point at the peak of the coherence (read as rule 5 reads it)
             around its grid direction instead of the image's: the sub-bands' mean weighs the
             narrower beams of a wide sweep's upper band as much as the widest.
-        coherence_slope: rise of rule 5's threshold with the angle of a point's arrival
-            direction off broadside [1/rad]: a point at angle a must reach
-            ``min_coherence + coherence_slope * a`` (:meth:`trust_threshold`; 0: the same
-            threshold everywhere).
     """
 
     step: float = np.radians(2.0)
@@ -48,7 +44,6 @@ class ImagingSettings:
     min_coherence: float = 0.4
     coherence_bands: int = 1
     coherence_peak: bool = False
-    coherence_slope: float = 0.0
 
     def __post_init__(self):
         check_range("ImagingSettings.step [rad]", self.step, 1e-3, np.radians(10))
@@ -63,16 +58,6 @@ class ImagingSettings:
         if not (int(self.coherence_bands) == self.coherence_bands and self.coherence_bands >= 1):
             raise ValueError(f"ImagingSettings.coherence_bands must be a whole number >= 1, "
                              f"got {self.coherence_bands}")
-        if not (np.isfinite(self.coherence_slope) and self.coherence_slope >= 0):
-            raise ValueError(f"ImagingSettings.coherence_slope [1/rad] must be >= 0, "
-                             f"got {self.coherence_slope}")
-
-    def trust_threshold(self, direction: np.ndarray) -> np.ndarray:
-        """(P,) rule 5's threshold for points whose arrival directions are the unit vectors
-        ``direction`` (P, 3), sensor frame (broadside +z): ``min_coherence`` plus
-        ``coherence_slope`` times their angle off broadside [rad]."""
-        off_axis = np.arccos(np.clip(np.asarray(direction, float)[:, 2], -1.0, 1.0))
-        return self.min_coherence + self.coherence_slope * off_axis
 
 
 @dataclass(frozen=True)

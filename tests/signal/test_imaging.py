@@ -350,37 +350,6 @@ def test_a_defocused_arrays_echo_trains_are_one_point_each(wide):
     assert len(found["element"]) >= 3 * len(targets), len(found["element"])
 
 
-def test_coherence_slope_raises_the_threshold_off_broadside(wide):
-    """``coherence_slope``: rule 5's threshold is ``min_coherence`` plus the slope times the
-    angle of a point's arrival direction off broadside. Two lone reflectors behind the 20-80 kHz
-    sweep (coherence read in three sub-bands at the grid direction: >= 0.6 each; measured 0.73
-    and 0.95), 4 and 26 deg off broadside: at
-    threshold 0.3 both are points; with a slope of 1.8 per radian (thresholds 0.43 and 1.12)
-    only the near one, at the same place; a negative slope is refused."""
-    band, synth, cfg = wide
-    targets = _targets([4, -24], [0, -10], [2.0, 2.6])
-    recording = synth.recording(band.to_samples(synth.group_spectrum(
-        _reflectors(targets), None, GEOMETRY.rx.count)), cfg.noise_rms, seed=11)
-    found = {}
-    for slope in (0.0, 1.8):
-        imager = _wide_imager(wide, coherence_bands=3, min_coherence=0.3, coherence_slope=slope)
-        image, channels = imager.image(recording)
-        found[slope] = imager.points(image, channels, recording.start_time)
-    off_axis = np.degrees(np.arccos(found[0.0].direction[:, 2]))
-    nearest = np.linalg.norm(found[0.0].points[:, None] - targets[None], axis=-1).argmin(axis=1)
-    assert sorted(nearest) == [0, 1], nearest
-    assert np.all(found[0.0].coherence >= 0.6), found[0.0].coherence
-    np.testing.assert_allclose(np.sort(off_axis), [4, 26], atol=1.0)
-    threshold = ImagingSettings(min_coherence=0.3, coherence_slope=1.8).trust_threshold(
-        found[0.0].direction)
-    np.testing.assert_allclose(threshold, 0.3 + 1.8 * np.radians(off_axis))
-    near = found[0.0].points[off_axis < 10]
-    assert len(found[1.8]) == 1 and found[1.8].passed["trusted"] == 1
-    np.testing.assert_array_equal(found[1.8].points, near)
-    with pytest.raises(ValueError, match="coherence_slope"):
-        ImagingSettings(coherence_slope=-0.1)
-
-
 def test_sub_band_coherence_does_not_trust_echoes_arriving_together(wide):
     """Behind the 20-80 kHz sweep, with the coherence averaged over three sub-bands (the
     side-lobe and clutter rules off): one reflector alone is a point of coherence >= 0.95; two
