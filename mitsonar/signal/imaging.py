@@ -132,6 +132,11 @@ from mitsonar.validation import check_positive, check_range
 DIRECTION_BATCH = 256
 #: Candidate cells whose side-lobe levels are predicted together (bounds a (batch, D) array).
 CANDIDATE_BATCH = 1024
+#: Range side lobes below this share of an echo's matched-filter peak count as none (-100 dB):
+#: an echo 2e5 times (106 dB) stronger than a cell would be needed for them to decide rule 4,
+#: beyond any image's range (noise to the nearest echo: 60-80 dB). A 4 ms sweep's lobes end at
+#: its length (963 lags at 250 kHz), so each candidate reads 2 x 583 samples, not the recording.
+RANGE_LOBE_FLOOR = 1e-5
 #: The array's normal.
 BROADSIDE = np.array([0.0, 0.0, 1.0])
 
@@ -161,12 +166,14 @@ def excess_paths(positions: np.ndarray, firing: np.ndarray, lead: float, source,
 
 
 def _range_side_lobes(envelope: np.ndarray) -> np.ndarray:
-    """(N,) |R| at lags 0 .. N - 1 [samples] of one echo's matched-filter envelope (N,) (its
-    peak at lag 0): normalised to its peak, zero over its main lobe (up to its first minimum)."""
+    """(L + 1,) |R| at lags 0 .. L [samples] of one echo's matched-filter envelope (N,) (its
+    peak at lag 0): normalised to its peak, zero over its main lobe (up to its first minimum),
+    up to the last lag L where it exceeds :data:`RANGE_LOBE_FLOOR` (none beyond)."""
     lobes = envelope / envelope[0]
     rising = np.diff(lobes) >= 0
     lobes[: int(np.argmax(rising)) + 1 if rising.any() else len(lobes)] = 0.0
-    return lobes.astype(np.float32)
+    above = np.flatnonzero(lobes > RANGE_LOBE_FLOOR)
+    return lobes[: above[-1] + 1 if len(above) else 1].astype(np.float32)
 
 
 class ReceiveImager:
@@ -484,13 +491,17 @@ class ReceiveImager:
                                 k: np.ndarray) -> np.ndarray:
         """(P,) the largest range side-lobe level that any sample k0 of field-of-view direction
         ``row`` puts into its sample k: max over k0 of sub(row, k0) |R(k - k0)| (``sub``: the
-        image's field-of-view rows)."""
+        image's field-of-view rows), k0 within the lobes' extent (:func:`_range_side_lobes`)."""
         out = np.zeros(len(row))
-        lags = np.arange(sub.shape[1])
-        for first in range(0, len(row), CANDIDATE_BATCH):  # bounded (batch, N) products
+        reach = len(self._range_lobes) - 1
+        lags = np.arange(-reach, reach + 1)
+        lobes = self._range_lobes[np.abs(lags)]
+        n = sub.shape[1]
+        for first in range(0, len(row), CANDIDATE_BATCH):  # bounded (batch, 2 L + 1) products
             rows = slice(first, first + CANDIDATE_BATCH)
-            lobes = self._range_lobes[np.abs(k[rows, None] - lags)]
-            out[rows] = (sub[row[rows]] * lobes).max(axis=1, initial=0.0)
+            at = k[rows, None] + lags
+            near = sub[row[rows, None], np.clip(at, 0, n - 1)] * lobes
+            out[rows] = np.where((at >= 0) & (at < n), near, 0.0).max(axis=1, initial=0.0)
         return out
 
     def expected_false_alarms(self, n_samples: int, start_time: float,
