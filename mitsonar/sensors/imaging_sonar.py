@@ -181,8 +181,8 @@ class Image:
         amplitude: (P,) image value at each point [Pa].
         snr: (P,) amplitude over the RMS noise envelope.
         coherence: (P,) share of the channels' power one plane wave from each point's direction
-            explains (the trust criterion, :class:`~mitsonar.signal.imaging_settings.ImagingSettings`
-            ``min_coherence``).
+            explains (the trust criterion,
+            :class:`~mitsonar.signal.imaging_settings.ImagingSettings` ``min_coherence``).
         passed: cells of the field of view passing each rule in turn
             (:class:`~mitsonar.signal.imaging_settings.ImagePoints`).
         directions: (D, 3) the receive directions of the grid over the transmitted cone

@@ -112,7 +112,6 @@ elements' spread) and the densities rho_j of a chi-square field with 2 degrees o
 
 from __future__ import annotations
 
-
 import numpy as np
 from scipy.ndimage import maximum_filter1d
 
@@ -134,8 +133,9 @@ DIRECTION_BATCH = 256
 CANDIDATE_BATCH = 1024
 #: Range side lobes below this share of an echo's matched-filter peak count as none (-100 dB):
 #: an echo 2e5 times (106 dB) stronger than a cell would be needed for them to decide rule 4,
-#: beyond any image's range (noise to the nearest echo: 60-80 dB). A 4 ms sweep's lobes end at
-#: its length (963 lags at 250 kHz), so each candidate reads 2 x 583 samples, not the recording.
+#: beyond any image's range (noise to the nearest echo: 60-80 dB). A 4 ms 20-80 kHz sweep's lobes
+#: fall below it 583 lags from the peak at 250 kHz, so each candidate reads 2 x 583 samples, not
+#: the recording's 8 472.
 RANGE_LOBE_FLOOR = 1e-5
 #: The array's normal.
 BROADSIDE = np.array([0.0, 0.0, 1.0])

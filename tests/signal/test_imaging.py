@@ -350,6 +350,28 @@ def test_a_defocused_arrays_echo_trains_are_one_point_each(wide):
     assert len(found["element"]) >= 3 * len(targets), len(found["element"])
 
 
+def test_range_side_lobe_check_reads_only_where_the_lobes_are(wide):
+    """Rule 4's range check reads each cell's lags up to where the matched filter's range side
+    lobes fall below ``RANGE_LOBE_FLOOR`` (the 20-80 kHz sweep: a few hundred lags of a
+    recording of thousands): the table ends at its last lag above the floor, and on a random
+    image the levels equal the brute-force max over every sample of the row with the table
+    zero beyond its end (cells at both ends of the recording and in between; exactly)."""
+    from mitsonar.signal.imaging import RANGE_LOBE_FLOOR
+
+    imager = _wide_imager(wide)
+    lobes = imager._range_lobes
+    n = wide[0].n_samples
+    assert lobes[-1] > RANGE_LOBE_FLOOR and 10 < len(lobes) < n // 4, (len(lobes), n)
+    rng = np.random.default_rng(3)
+    sub = rng.random((4, n)).astype(np.float32)
+    row = np.array([0, 1, 2, 3, 0, 1])
+    k = np.array([0, 1, n // 2, n - 1, len(lobes) - 2, n - len(lobes)])
+    full = np.zeros(n, np.float32)
+    full[:len(lobes)] = lobes
+    expected = [np.max(sub[r] * full[np.abs(c - np.arange(n))]) for r, c in zip(row, k)]
+    np.testing.assert_array_equal(imager._range_side_lobe_levels(sub, row, k), expected)
+
+
 def test_sub_band_coherence_does_not_trust_echoes_arriving_together(wide):
     """Behind the 20-80 kHz sweep, with the coherence averaged over three sub-bands (the
     side-lobe and clutter rules off): one reflector alone is a point of coherence >= 0.95; two
