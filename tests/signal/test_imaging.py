@@ -13,7 +13,7 @@ from mitsonar.frames import direction_from_fov_angles
 from mitsonar.sensors.imaging_sonar import DEFOCUSED, TransmitSettings
 from mitsonar.sensors.sonar import PRE_ROLL
 from mitsonar.signal.band import Band
-from mitsonar.signal.imaging import ReceiveImager, coherence_windows
+from mitsonar.signal.imaging import RANGE_LOBE_FLOOR, ReceiveImager, coherence_windows
 from mitsonar.signal.imaging_settings import WIDE_SWEEP_SETTINGS, ImagingSettings
 from mitsonar.signal.receiver import EchoProcessor
 from mitsonar.signal.synthesis import EchoSynthesizer
@@ -356,8 +356,6 @@ def test_range_side_lobe_check_reads_only_where_the_lobes_are(wide):
     recording of thousands): the table ends at its last lag above the floor, and on a random
     image the levels equal the brute-force max over every sample of the row with the table
     zero beyond its end (cells at both ends of the recording and in between; exactly)."""
-    from mitsonar.signal.imaging import RANGE_LOBE_FLOOR
-
     imager = _wide_imager(wide)
     lobes = imager._range_lobes
     n = wide[0].n_samples
