@@ -269,9 +269,17 @@ class Beamformer:
         as :meth:`operator` reads them (their sum is the beam)."""
         k = np.floor(samples).astype(np.int64)
         data, columns, _ = self._weights(self.receive_delays(directions), carriers, samples - k,
-                                         np.arange(len(k)))
-        windows = self.windows(channels, sets, k).T.ravel()
-        return (data * windows[columns]).reshape(len(k), -1, 2).sum(axis=-1)
+                                         None)
+        # Only the two samples each channel interpolates between, not its whole window:
+        # column c of channel j's window is sample k - W + c - j L.
+        n_rx, n = channels.shape[1], channels.shape[-1]
+        length = 2 * self.window_lag + 2
+        index = k[:, None, None] - self.window_lag + columns.reshape(len(k), n_rx, 2) \
+            - (np.arange(n_rx) * length)[None, :, None]  # (E, N_rx, 2)
+        values = channels[np.asarray(sets)[:, None, None], np.arange(n_rx)[None, :, None],
+                          np.clip(index, 0, n - 1)]
+        values = np.where((index >= 0) & (index < n), values, 0)
+        return (data.reshape(values.shape) * values).sum(axis=-1)
 
     def coherence(self, channels: np.ndarray, sets, carriers, beams, samples,
                   directions) -> np.ndarray:

@@ -103,3 +103,28 @@ def test_no_grid_direction_beats_the_bound_and_one_plane_wave_reaches_it():
                               samples)
     np.testing.assert_allclose(np.abs(operator[700] @ wave).ravel(), _bound(beamformer, wave),
                                rtol=BOUND_ROUNDING)
+
+
+def test_aligned_channels_sum_to_the_operators_beam_also_at_the_recordings_edges():
+    """Beamformer.aligned gathers only the two samples each channel interpolates between; its
+    sum over the channels is the operator's beam on the whole window (the same numbers to 1e-12
+    relative), for looks of two channel sets at fractional samples inside the recording and
+    within a window of either end (samples beyond it read as zeros)."""
+    beamformer = _beamformer()
+    g = mitsonar.SonarConfig().geometry
+    rng = np.random.default_rng(3)
+    channels = np.concatenate([_channels(beamformer, [g.fov_grid(np.radians(10.0))[k]], [1.0],
+                                         300, 0.1, k) for k in (0, 5)])  # (2, N_rx, 300)
+    lag = beamformer.window_lag
+    samples = np.concatenate([rng.uniform(lag, 300 - lag, 30), rng.uniform(-lag, lag, 15),
+                              rng.uniform(300 - lag, 300 + lag, 15)])
+    sets = rng.integers(0, 2, len(samples))
+    directions = g.fov_grid(np.radians(5.0))[rng.integers(0, 117, len(samples))]
+    carriers = rng.choice([38e3, 40e3, 42e3], len(samples))
+    k = np.floor(samples).astype(np.int64)
+    beam = beamformer.operator(directions, carriers, samples - k, np.arange(len(k))) \
+        @ beamformer.windows(channels, sets, k).T.ravel()
+    aligned = beamformer.aligned(channels, sets, carriers, samples, directions)
+    assert aligned.shape == (len(samples), g.rx.count)
+    np.testing.assert_allclose(aligned.sum(axis=1), beam, rtol=1e-12, atol=1e-12)
+    assert np.abs(beam[30:]).min() < np.abs(beam[:30]).max()  # the edges read fewer samples
