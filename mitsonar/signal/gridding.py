@@ -106,7 +106,8 @@ def pair_kernel():
     precision) and spreads them, so the H x N_tx x N_rx pairs never exist as arrays.
 
     Arguments: the flat grid's size, thread indices 0 .. H x N_rx - 1, the 7 transmit and 7
-    receive factors (:meth:`HitPaths.kernel_factors`, already demodulated and in grid units),
+    receive factors, or 2 and 2 without a specular term (:meth:`HitPaths.kernel_factors`,
+    already demodulated and in grid units; each layout a recording of its own),
     transmit positions (H x N_tx,) and receive offsets (H x N_rx,) [samples] (a pair's position
     is their sum), N_tx, N_rx, each patch's row length and the flat index of its rows' sample 0
     (H,) (several path sets, each on rows of its own, share a launch), half_width, 1/sigma^2,

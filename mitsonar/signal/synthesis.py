@@ -264,6 +264,7 @@ class EchoSynthesizer:
         rx_u = paths.rx_delay[keep] * fs
         tx_factor = self._demodulation(tx_u)
         rx_factor = scale[owner][:, None] * self._demodulation(rx_u)
+        specular = not paths.specular_free  # point reflectors: the diffuse term alone
         for group in np.unique(launch[gridded]):  # launches (one for small sets)
             members = np.flatnonzero(gridded & (launch == group))
             start = np.zeros(len(sets), np.int64)
@@ -271,9 +272,9 @@ class EchoSynthesizer:
             mine = np.flatnonzero(np.isin(owner, members))
             if mine.size < owner.size:
                 tx, rx = paths.kernel_factors(np.arange(len(paths.tx_delay))[keep][mine],
-                                              tx_factor[mine], rx_factor[mine])
+                                              tx_factor[mine], rx_factor[mine], specular)
             else:
-                tx, rx = paths.kernel_factors(keep, tx_factor, rx_factor)
+                tx, rx = paths.kernel_factors(keep, tx_factor, rx_factor, specular)
             total = int(size[members].sum())
             thread = to_jit(UInt32, np.arange(mine.size * n_rx, dtype=np.uint32))
             whose = owner[mine]

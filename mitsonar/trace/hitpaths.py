@@ -162,23 +162,38 @@ class HitPaths:
         transmit element (its firing time)."""
         return replace(self, tx_delay=self.tx_delay + seconds)
 
-    def kernel_factors(self, rows=slice(None), tx_factor=None,
-                       rx_factor=None) -> tuple[list, list]:
+    @property
+    def specular_free(self) -> bool:
+        """Whether no pair has a specular term (every ``specular`` factor 0, as for the paper's
+        point reflectors): the diffuse term alone is each pair's gain."""
+        return not np.any(self.specular)
+
+    def kernel_factors(self, rows=slice(None), tx_factor=None, rx_factor=None,
+                       specular: bool = True) -> tuple[list, list]:
         """The gain factors of patches ``rows`` (an index or slice; default all) as
         single-precision Dr.Jit arrays for :func:`pair_gain`: 7 transmit factors (H x N_tx,)
         (specular re, im, diffuse re, im, cosine, sinc arguments) and 7 receive factors
         (H x N_rx,) with the patch's own factors folded in; every pair's gain times
         ``tx_factor[h, i] rx_factor[h, j]`` where given (complex (H, N_tx) and (H, N_rx) arrays
-        for those rows, e.g. demodulating phasors). No copy of the other factors is made."""
+        for those rows, e.g. demodulating phasors). No copy of the other factors is made.
+        ``specular=False`` (for :attr:`specular_free` paths): the diffuse factors (re, im)
+        alone, 2 and 2."""
         Float32 = backend().Float32
-        tx_s, tx_d, rx_s, rx_d = (getattr(self, name)[rows] for name in (
-            "tx_specular", "tx_diffuse", "rx_specular", "rx_diffuse"))
+        tx_d, rx_d = self.tx_diffuse[rows], self.rx_diffuse[rows]
         if tx_factor is not None:
-            tx_s, tx_d = tx_s * tx_factor, tx_d * tx_factor
+            tx_d = tx_d * tx_factor
         if rx_factor is not None:
-            rx_s, rx_d = rx_s * rx_factor, rx_d * rx_factor
-        rx_s = rx_s * self.specular[rows, None]
+            rx_d = rx_d * rx_factor
         rx_d = rx_d * self.diffuse[rows, None]
+        if not specular:
+            return ([to_jit(Float32, x) for x in (tx_d.real, tx_d.imag)],
+                    [to_jit(Float32, x) for x in (rx_d.real, rx_d.imag)])
+        tx_s, rx_s = self.tx_specular[rows], self.rx_specular[rows]
+        if tx_factor is not None:
+            tx_s = tx_s * tx_factor
+        if rx_factor is not None:
+            rx_s = rx_s * rx_factor
+        rx_s = rx_s * self.specular[rows, None]
         tx_sinc, rx_sinc = self.tx_sinc[rows], self.rx_sinc[rows]
         tx = [to_jit(Float32, x) for x in (tx_s.real, tx_s.imag, tx_d.real, tx_d.imag,
                                            self.tx_cos[rows], tx_sinc[..., 0], tx_sinc[..., 1])]
@@ -362,7 +377,11 @@ def _merge_kernel():
 
 def pair_gain(tx_values, rx_values):
     """Gain (re, im) of one element pair inside a Dr.Jit kernel, from the 7 transmit factors
-    and the 7 receive factors of :meth:`HitPaths.kernel_factors` (gathered for the pair)."""
+    and the 7 receive factors of :meth:`HitPaths.kernel_factors` (gathered for the pair), or
+    from their 2 and 2 diffuse factors (``specular=False``: no sines, a fifth of the gathers)."""
+    if len(tx_values) == 2:
+        (u_re, u_im), (v_re, v_im) = tx_values, rx_values
+        return u_re * v_re - u_im * v_im, u_re * v_im + u_im * v_re
     p_re, p_im, u_re, u_im, c, a1, a2 = tx_values
     q_re, q_im, v_re, v_im, d, b1, b2 = rx_values
     patch = (c + d) * _sinc_dr(a1 + b1) * _sinc_dr(a2 + b2)

@@ -47,6 +47,21 @@ def test_factored_pairs_grid_as_their_expansion(walls, which):
     assert _relative_difference(pairs, expanded) < 2e-5
 
 
+def test_point_reflectors_grid_as_their_expansion(walls):
+    """The paper model's point reflectors have no specular term (``HitPaths.specular_free``):
+    the kernel forms their pairs' gains from the diffuse factors alone; whole array
+    transmitting, ideal transducers, every pair gridded, against the expanded pairs (the same
+    2e-5 of the grid's peak as above), and a physical model's hits are not specular-free."""
+    config = mitsonar.SonarConfig.preset("paper")
+    sonar = mitsonar.Sonar(walls[0], config)
+    hits = sonar.tracer.trace(IDENTITY, direction_from_fov_angles(np.radians(10.0), 0.0)).paths
+    assert hits.specular_free and len(hits.tx_delay) == 25 and np.abs(hits.diffuse).max() > 0
+    pairs = sonar.synthesizer.impulse_grid(hits, 25)
+    assert _relative_difference(pairs, sonar.synthesizer.impulse_grid(hits.paths, 25)) < 2e-5
+    physical = mitsonar.Sonar(walls[0], BROADBAND).tracer.trace(IDENTITY, [0.0, 0.0, 1.0]).paths
+    assert not physical.specular_free
+
+
 def test_factored_and_flat_paths_share_a_synthesis(walls):
     """Factored echoes and flat direct paths driven by one waveform (one spectrum), against the
     same paths all flat; and patches partly or wholly after the recording's end, which the
