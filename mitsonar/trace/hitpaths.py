@@ -179,21 +179,17 @@ class HitPaths:
         ``specular=False`` (for :attr:`specular_free` paths): the diffuse factors (re, im)
         alone, 2 and 2."""
         Float32 = backend().Float32
-        tx_d, rx_d = self.tx_diffuse[rows], self.rx_diffuse[rows]
-        if tx_factor is not None:
-            tx_d = tx_d * tx_factor
-        if rx_factor is not None:
-            rx_d = rx_d * rx_factor
-        rx_d = rx_d * self.diffuse[rows, None]
+
+        def term(tx, rx, patch):  # a term's factors for rows, the patch's folded into rx
+            tx = tx[rows] if tx_factor is None else tx[rows] * tx_factor
+            rx = rx[rows] if rx_factor is None else rx[rows] * rx_factor
+            return tx, rx * patch[rows, None]
+
+        tx_d, rx_d = term(self.tx_diffuse, self.rx_diffuse, self.diffuse)
         if not specular:
             return ([to_jit(Float32, x) for x in (tx_d.real, tx_d.imag)],
                     [to_jit(Float32, x) for x in (rx_d.real, rx_d.imag)])
-        tx_s, rx_s = self.tx_specular[rows], self.rx_specular[rows]
-        if tx_factor is not None:
-            tx_s = tx_s * tx_factor
-        if rx_factor is not None:
-            rx_s = rx_s * rx_factor
-        rx_s = rx_s * self.specular[rows, None]
+        tx_s, rx_s = term(self.tx_specular, self.rx_specular, self.specular)
         tx_sinc, rx_sinc = self.tx_sinc[rows], self.rx_sinc[rows]
         tx = [to_jit(Float32, x) for x in (tx_s.real, tx_s.imag, tx_d.real, tx_d.imag,
                                            self.tx_cos[rows], tx_sinc[..., 0], tx_sinc[..., 1])]
