@@ -10,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
+from mitsonar.physics.waveforms import SWEEPS
 from mitsonar.scene.catalog import resolve_scene
 from mitsonar.sensors.trajectory import Trajectory
 from mitsonar.signal.detection import ECHO_MODES
@@ -135,10 +136,12 @@ def add_drive_arguments(parser, sweep_use: str) -> None:
     parser.add_argument("--broadband", action="store_true",
                         help="broadband transducers (20 kHz at -6 dB) instead of the 2 kHz TCT40 "
                              "class")
-    parser.add_argument("--chirp", action="store_true",
-                        help="drive the transmission with a 4 ms 30-50 kHz frequency sweep "
-                             "instead of the tone burst (needs --broadband or --preset paper; "
-                             f"{sweep_use})")
+    parser.add_argument("--chirp", nargs="?", const="30-50", default=None, choices=SWEEPS,
+                        metavar="KHZ",
+                        help="drive the transmission with a 4 ms frequency sweep instead of the "
+                             "tone burst: 30-50 kHz (without KHZ; needs --broadband or --preset "
+                             "paper) or 20-80 (RTIS's, sampled at 250 kHz; needs --preset "
+                             f"paper) ({sweep_use})")
 
 
 def drive_config(args):
@@ -150,7 +153,8 @@ def drive_config(args):
     try:
         return SonarConfig.preset(args.preset).with_drive(args.broadband, args.chirp)
     except ValueError as error:  # the sweep behind transducers that do not pass it
-        raise ValueError(f"--chirp needs --broadband or --preset paper: {error}") from None
+        needs = "--broadband or --preset paper" if args.chirp == "30-50" else "--preset paper"
+        raise ValueError(f"--chirp {args.chirp} needs {needs}: {error}") from None
 
 
 def add_echoes_argument(parser, default: str, what: str) -> None:

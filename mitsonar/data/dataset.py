@@ -43,8 +43,10 @@ import numpy as np
 from mitsonar.sensors.camera import CameraModel, CameraRenderer, srgb8
 from mitsonar.sensors.imaging_sonar import ImagingSonar
 from mitsonar.io import atomic_path
+from mitsonar.physics.waveforms import SWEEPS
 from mitsonar.sensors.sonar import Sonar, SonarConfig
 from mitsonar.signal.detection import ECHO_MODES
+from mitsonar.signal.imaging_settings import imaging_settings_for
 from mitsonar.sensors.trajectory import OdometryDrift, Trajectory, sensor_poses
 from mitsonar.validation import check_image_width, check_positive
 
@@ -81,8 +83,12 @@ class DatasetSpec:
             'image' (one single-ping receive image per sample, :meth:`ImagingSonar.scan
             <mitsonar.sensors.imaging_sonar.ImagingSonar.scan>`).
         broadband: broadband transducers (20 kHz at -6 dB) instead of the 2 kHz TCT40 class.
-        chirp: drive the default 30-50 kHz sweep instead of the tone burst (needs
-            ``broadband`` or the 'paper' preset).
+        chirp: drive a frequency sweep instead of the tone burst (``SonarConfig.with_drive``):
+            '30-50' kHz (needs ``broadband`` or the 'paper' preset) or '20-80' (needs 'paper';
+            its images keep points by the sub-band trust rule,
+            :func:`~mitsonar.signal.imaging_settings.imaging_settings_for`); None: the burst.
+            (True and False, as specs written before the 20-80 kHz sweep hold, read as '30-50'
+            and None.)
     """
 
     scene: str
@@ -100,7 +106,7 @@ class DatasetSpec:
     echoes: str = "all"
     scan: str = "beams"
     broadband: bool = False
-    chirp: bool = False
+    chirp: str | None = None
 
     def __post_init__(self):
         check_positive("DatasetSpec.period [s]", self.period)
@@ -114,6 +120,11 @@ class DatasetSpec:
         if self.scan not in SCANS:
             raise ValueError(f"DatasetSpec.scan must be one of {', '.join(SCANS)}, "
                              f"got {self.scan!r}")
+        if isinstance(self.chirp, bool):
+            object.__setattr__(self, "chirp", "30-50" if self.chirp else None)
+        if self.chirp is not None and self.chirp not in SWEEPS:
+            raise ValueError(f"DatasetSpec.chirp must be None or one of {', '.join(SWEEPS)}, "
+                             f"got {self.chirp!r}")
         self.sonar_config()  # a sweep the transducers cannot pass is refused here
         if self.trajectory is not None:
             object.__setattr__(self, "trajectory", tuple(map(tuple, np.asarray(self.trajectory, float))))
@@ -149,6 +160,15 @@ class DatasetSpec:
         return times, truth, odometry
 
 
+def _normalised(spec_json) -> dict | None:
+    """A dataset.json's spec as this version writes it (e.g. ``chirp`` true -> '30-50'); None
+    where it is not a spec this version reads."""
+    try:
+        return DatasetSpec.from_json(spec_json).to_json()
+    except (TypeError, ValueError, KeyError, AttributeError):
+        return None
+
+
 def _derive_seed(seed: int, *parts) -> int:
     text = "/".join(str(p) for p in (seed,) + parts).encode()
     return int.from_bytes(hashlib.sha256(text).digest()[:4], "little")
@@ -164,7 +184,8 @@ class _Renderer:
                                      CameraModel(spp=spec.spp).at_resolution(spec.image_width))
         self.times, self.truth, self.odometry = spec.timeline()
         self.directions = self.sonar.fov_grid(spec.scan_step)
-        self.imaging = ImagingSonar(self.sonar) if spec.scan == "image" else None
+        self.imaging = ImagingSonar(self.sonar, imaging_settings_for(self.sonar.config.pulse)) \
+            if spec.scan == "image" else None
 
     def render(self, out: Path, index: int) -> None:
         """Write sample ``index`` into ``out/samples`` atomically."""
@@ -279,7 +300,7 @@ def render_dataset(spec: DatasetSpec, out, workers: int = 1, scheduler: str | No
     meta_path = out / "dataset.json"
     if meta_path.exists():
         old = json.loads(meta_path.read_text())
-        if old.get("spec") != meta["spec"]:
+        if _normalised(old.get("spec")) != meta["spec"]:
             raise DatasetError(f"{out}: holds a dataset of another spec; choose another folder")
     else:
         with atomic_path(meta_path) as tmp:

@@ -11,6 +11,9 @@ from mitsonar.validation import check_positive, check_range
 
 #: Oversampling used to evaluate a pulse's continuous-time spectrum by direct summation [Hz].
 _SPECTRUM_RATE = 4.0e6
+#: The frequency sweeps a sonar configuration can be driven by for single-ping imaging, by name
+#: ([kHz] from - to; :meth:`~mitsonar.sensors.sonar.SonarConfig.with_drive`).
+SWEEPS = ("30-50", "20-80")
 
 
 @dataclass(frozen=True)

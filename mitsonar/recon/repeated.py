@@ -48,7 +48,7 @@ from mitsonar.sensors.ofdm_sonar import Frame, OfdmSonar, pose_along
 from mitsonar.sensors.sonar import Sonar, beam_seed
 from mitsonar.sensors.trajectory import Trajectory
 from mitsonar.signal.detection import ECHO_MODES, OFF_BEAM_MODES, DetectionSettings
-from mitsonar.signal.imaging_settings import ImagingSettings
+from mitsonar.signal.imaging_settings import ImagingSettings, imaging_settings_for
 from mitsonar.validation import check_image_width, check_positive, check_positive_integer
 from mitsonar.recon.voxelmap import VoxelMap, VoxelMapSettings, colourise
 
@@ -99,8 +99,10 @@ class RepeatedMapSpec:
             and ``shared_hits`` concern OFDM frames only, ``transmit`` and ``imaging`` images
             only.
         transmit: the images' wide transmission and its trace.
-        imaging: the images' grid and points rule (e.g. the trust rule read in sub-bands of a
-            wide sweep, :class:`~mitsonar.signal.imaging_settings.ImagingSettings`).
+        imaging: the images' grid and points rule
+            (:class:`~mitsonar.signal.imaging_settings.ImagingSettings`); None: the rule for
+            the sonar's drive (:func:`~mitsonar.signal.imaging_settings.imaging_settings_for`:
+            the trust rule read in sub-bands for a sweep over an octave, as 20-80 kHz).
     """
 
     frames: int | None = None
@@ -118,7 +120,7 @@ class RepeatedMapSpec:
     seed: int = 0
     scan: str = "ofdm"
     transmit: TransmitSettings = TransmitSettings()
-    imaging: ImagingSettings = ImagingSettings()
+    imaging: ImagingSettings | None = None
 
     def __post_init__(self):
         if self.frames is not None:
@@ -198,7 +200,9 @@ class _RepeatedFrames:
             self.schedules = [replace(schedule, directions=d) for d in shifted]
             self.duration = schedule.frame_duration
         else:
-            self.imaging = ImagingSonar(sonar, spec.imaging, spec.transmit)
+            rule = imaging_settings_for(sonar.config.pulse) if spec.imaging is None \
+                else spec.imaging
+            self.imaging = ImagingSonar(sonar, rule, spec.transmit)
             self.per_frame = int(np.ceil(IMAGE_FRAME / self.imaging.cycle_time - 1e-9))
             self.duration = self.per_frame * self.imaging.cycle_time
         self.interval = self.duration if spec.interval is None else spec.interval

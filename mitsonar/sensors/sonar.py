@@ -25,7 +25,7 @@ from mitsonar.physics.medium import Medium
 from mitsonar.signal.detection import Detection, DetectionSettings, Echoes
 from mitsonar.signal.receiver import EchoProcessor
 from mitsonar.scene.loading import AcousticScene, load_scene
-from mitsonar.physics.waveforms import Chirp, Pulse
+from mitsonar.physics.waveforms import SWEEPS, Chirp, Pulse
 from mitsonar.signal.band import BAND_TOP, Band, Recording
 from mitsonar.signal.synthesis import EchoSynthesizer
 from mitsonar.trace.paths import Paths
@@ -176,13 +176,20 @@ class SonarConfig:
         except (TypeError, ValueError) as err:
             raise ValueError(f"{path}: {err}") from None
 
-    def with_drive(self, broadband: bool = False, chirp: bool = False) -> "SonarConfig":
+    def with_drive(self, broadband: bool = False,
+                   chirp: bool | str | None = None) -> "SonarConfig":
         """This configuration with broadband transducers (``Transducer.broadband()``, 20 kHz
-        at -6 dB) and/or driven by the default frequency sweep (``Chirp()``, 30-50 kHz, for
-        single-ping imaging); a sweep needs transducers that pass it: broadband ones, or the
-        ideal ones of ``paper`` (ValueError otherwise)."""
+        at -6 dB) and/or driven by a frequency sweep for single-ping imaging (``chirp``, one of
+        :data:`SWEEPS`; True: "30-50"): "30-50" the default sweep (``Chirp()``), "20-80"
+        RTIS's (:meth:`with_wide_sweep`). A sweep needs transducers that pass it: broadband
+        ones pass 30-50 kHz, the ideal ones of ``paper`` either (ValueError otherwise)."""
         config = replace(self, transducer=Transducer.broadband()) if broadband else self
-        if chirp:
+        sweep = "30-50" if chirp is True else chirp or None
+        if sweep is not None and sweep not in SWEEPS:
+            raise ValueError(f"chirp must be one of {', '.join(SWEEPS)}, got {chirp!r}")
+        if sweep == "20-80":
+            return config.with_wide_sweep()
+        if sweep == "30-50":
             config._check_passes(Chirp())
             config = replace(config, pulse=Chirp())
         return config

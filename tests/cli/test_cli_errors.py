@@ -166,10 +166,13 @@ def test_a_drive_longer_than_the_trajectory_is_refused(tmp_path, capsys, mode, v
 
 
 @pytest.mark.parametrize("options,names", [
-    (["--chirp"], ["--chirp", "--broadband", "2 kHz"]),
+    (["--chirp"], ["--chirp 30-50", "--broadband", "2 kHz"]),
+    (["--chirp", "20-80", "--broadband"], ["--chirp 20-80", "--preset paper", "20 kHz"]),
+    (["--chirp", "20-60"], ["--chirp", "invalid choice", "'30-50', '20-80'"]),
     (["--transmit", "defocused"], ["--transmit defocused", "--scan imaging"])])
 def test_repeated_options_that_do_not_go_together(tmp_path, capsys, options, names):
-    """A sweep behind the narrow-band TCT40 transducers, a defocused transmission for OFDM
+    """A sweep behind transducers that do not pass it (30-50 kHz behind the TCT40 class, 20-80
+    behind the broadband ones), a sweep by an unknown name, a defocused transmission for OFDM
     frames: one line naming the options, before anything is simulated or written."""
     code, err = run(["map", "repeated", "room_glass", "--out", tmp_path / "o", *options], capsys)
     assert code == 2

@@ -151,3 +151,29 @@ def test_image_samples_hold_one_single_ping_image_and_export(tmp_path):
         DatasetSpec(ROOM, scan="image", chirp=True)
     with pytest.raises(ValueError, match="scan"):
         DatasetSpec(ROOM, scan="sweep")
+
+
+def test_sweeps_by_name_and_specs_written_with_a_boolean_chirp(tmp_path):
+    """``chirp`` names the sweep: '20-80' needs the paper preset and its images keep points by
+    the sub-band trust rule; specs written before it hold true or false, which read as '30-50'
+    and None, so a folder of such a dataset resumes (its dataset.json's spec matches) and one of
+    another spec is still refused."""
+    from mitsonar.data.dataset import _normalised
+    from mitsonar.signal.imaging_settings import WIDE_SWEEP_SETTINGS, ImagingSettings
+
+    spec = DatasetSpec(ROOM, broadband=True, chirp=True, max_samples=1)
+    assert spec.chirp == "30-50" and DatasetSpec(ROOM, chirp=False).chirp is None
+    old = {**spec.to_json(), "chirp": True}
+    assert DatasetSpec.from_json(old) == spec and _normalised(old) == spec.to_json()
+    assert _normalised({**old, "broadband": False}) is None  # 30-50 kHz behind the TCT40 class
+    assert _normalised({**old, "period": 2.0}) != spec.to_json()
+    with pytest.raises(ValueError, match="20-80 kHz sweep needs"):
+        DatasetSpec(ROOM, scan="image", chirp="20-80")
+    with pytest.raises(ValueError, match="30-50, 20-80"):
+        DatasetSpec(ROOM, scan="image", chirp="wide", sonar_preset="paper")
+    wide = _Renderer(DatasetSpec(ROOM, scan="image", chirp="20-80", sonar_preset="paper",
+                                 max_samples=1, image_width=16, spp=1))
+    assert wide.imaging.imager.settings == WIDE_SWEEP_SETTINGS
+    assert _Renderer(DatasetSpec(ROOM, scan="image", chirp="30-50", sonar_preset="paper",
+                                 max_samples=1, image_width=16,
+                                 spp=1)).imaging.imager.settings == ImagingSettings()

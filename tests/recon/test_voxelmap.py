@@ -440,3 +440,26 @@ def test_repeated_imaging_frames_group_images_under_one_camera_image(scene_file)
     assert len(world) >= per_frame and len(voxels.positions) > 0 and off.max() < 5e-3, off
     with pytest.raises(ValueError, match="scan"):
         RepeatedMapSpec(scan="sweep")
+
+
+def test_repeated_images_keep_points_by_the_rule_of_their_drive(scene_file):
+    """``RepeatedMapSpec.imaging`` None (the default): images driven by the 20-80 kHz sweep keep
+    points by the sub-band trust rule (``WIDE_SWEEP_SETTINGS``), those of a burst by the default
+    rule; a rule given is used as it is."""
+    from mitsonar.recon.repeated import RepeatedMapSpec, _RepeatedFrames
+    from mitsonar.sensors.imaging_sonar import TransmitSettings
+    from mitsonar.signal.imaging_settings import WIDE_SWEEP_SETTINGS, ImagingSettings
+
+    path = scene_file("wall", material_xml("w", preset="concrete"),
+                      rectangle_xml("w", (2.0, 0, 0.5), (0, -90, 0), size=(4, 4)))
+    trajectory = mitsonar.Trajectory(np.array([[0.0, 0.0, 0.0], [2.0, 0.0, 0.0]]), speed=0.2)
+    paper = mitsonar.SonarConfig.preset("paper")
+    fast = TransmitSettings(rays_per_axis=16)
+    mine = ImagingSettings(min_coherence=0.3)
+    for config, imaging, rule in ((paper.with_drive(chirp="20-80"), None, WIDE_SWEEP_SETTINGS),
+                                  (paper, None, ImagingSettings()),
+                                  (paper.with_drive(chirp="20-80"), mine, mine)):
+        spec = RepeatedMapSpec(frames=1, scan="imaging", transmit=fast, imaging=imaging,
+                               image_width=16, spp=1)
+        frames = _RepeatedFrames(mitsonar.Sonar(path, config), trajectory, spec)
+        assert frames.imaging.imager.settings == rule
