@@ -182,7 +182,7 @@ class SonarConfig:
         at -6 dB) and/or driven by a frequency sweep for single-ping imaging (``chirp``, one of
         :data:`SWEEPS`; True: "30-50"): "30-50" the default sweep (``Chirp()``), "20-80"
         RTIS's (:meth:`with_wide_sweep`). A sweep needs transducers that pass it: broadband
-        ones pass 30-50 kHz, the ideal ones of ``paper`` either (ValueError otherwise)."""
+        ones pass 30-50 kHz, the ideal ones of ``paper`` pass either (ValueError otherwise)."""
         config = replace(self, transducer=Transducer.broadband()) if broadband else self
         sweep = "30-50" if chirp is True else chirp or None
         if sweep is not None and sweep not in SWEEPS:

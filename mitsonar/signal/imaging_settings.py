@@ -103,8 +103,8 @@ WIDE_SWEEP_SETTINGS = ImagingSettings(min_coherence=0.2, coherence_bands=3, cohe
 def imaging_settings_for(pulse) -> ImagingSettings:
     """The points rule for images driven by ``pulse``: :data:`WIDE_SWEEP_SETTINGS` for a sweep
     over an octave or more (its receive beam narrows by half or more from the band's low end to
-    its top, which the whole band's coherence would weigh by power: the low end), else
-    ``ImagingSettings()``."""
+    its top, and the whole band's coherence would be read mostly at the low end, where the
+    echoes' power is), else ``ImagingSettings()``."""
     start, stop = (getattr(pulse, name, None) for name in ("start", "stop"))
     if start is not None and stop is not None and max(start, stop) >= 2 * min(start, stop):
         return WIDE_SWEEP_SETTINGS
