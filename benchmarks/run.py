@@ -30,7 +30,6 @@ from mitsonar.sensors.camera import CameraModel, CameraRenderer
 from mitsonar.sensors.imaging_sonar import DEFOCUSED, ImagingSonar, TransmitSettings
 from mitsonar.sensors.ofdm_sonar import OfdmSonar
 from mitsonar.signal.detection import ECHO_MODES
-from mitsonar.signal.imaging_settings import imaging_settings_for
 from mitsonar.evaluation.reference import direct_summation
 from mitsonar.sensors.sonar import TRACE_BATCH
 
@@ -258,8 +257,7 @@ def main(argv=None) -> int:
             (", 30-50 kHz chirp", replace(sonar.config, pulse=mitsonar.Chirp(),
                                           transducer=BROADBAND), TransmitSettings()),
             (", paper 20-80 kHz defocused", wide, DEFOCUSED)):
-        imager = ImagingSonar(mitsonar.Sonar(sonar.scene, config),
-                              imaging_settings_for(config.pulse), transmit)
+        imager = ImagingSonar(mitsonar.Sonar(sonar.scene, config), transmit=transmit)
         t_image, image = _timed(lambda: imager.image(pose))
         print(f"  {'single-ping receive image' + name:<52s} {t_image:8.4g} s/image  "
               f"{len(image):5d} points  (one image per {imager.cycle_time * 1e3:.1f} ms "

@@ -46,7 +46,6 @@ from mitsonar.io import atomic_path
 from mitsonar.physics.waveforms import SWEEPS
 from mitsonar.sensors.sonar import Sonar, SonarConfig
 from mitsonar.signal.detection import ECHO_MODES
-from mitsonar.signal.imaging_settings import imaging_settings_for
 from mitsonar.sensors.trajectory import OdometryDrift, Trajectory, sensor_poses
 from mitsonar.validation import check_image_width, check_positive
 
@@ -184,8 +183,7 @@ class _Renderer:
                                      CameraModel(spp=spec.spp).at_resolution(spec.image_width))
         self.times, self.truth, self.odometry = spec.timeline()
         self.directions = self.sonar.fov_grid(spec.scan_step)
-        self.imaging = ImagingSonar(self.sonar, imaging_settings_for(self.sonar.config.pulse)) \
-            if spec.scan == "image" else None
+        self.imaging = ImagingSonar(self.sonar) if spec.scan == "image" else None
 
     def render(self, out: Path, index: int) -> None:
         """Write sample ``index`` into ``out/samples`` atomically."""

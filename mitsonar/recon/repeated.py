@@ -48,7 +48,7 @@ from mitsonar.sensors.ofdm_sonar import Frame, OfdmSonar, pose_along
 from mitsonar.sensors.sonar import Sonar, beam_seed
 from mitsonar.sensors.trajectory import Trajectory
 from mitsonar.signal.detection import ECHO_MODES, OFF_BEAM_MODES, DetectionSettings
-from mitsonar.signal.imaging_settings import ImagingSettings, imaging_settings_for
+from mitsonar.signal.imaging_settings import ImagingSettings
 from mitsonar.validation import check_image_width, check_positive, check_positive_integer
 from mitsonar.recon.voxelmap import VoxelMap, VoxelMapSettings, colourise
 
@@ -200,9 +200,7 @@ class _RepeatedFrames:
             self.schedules = [replace(schedule, directions=d) for d in shifted]
             self.duration = schedule.frame_duration
         else:
-            rule = imaging_settings_for(sonar.config.pulse) if spec.imaging is None \
-                else spec.imaging
-            self.imaging = ImagingSonar(sonar, rule, spec.transmit)
+            self.imaging = ImagingSonar(sonar, spec.imaging, spec.transmit)
             self.per_frame = int(np.ceil(IMAGE_FRAME / self.imaging.cycle_time - 1e-9))
             self.duration = self.per_frame * self.imaging.cycle_time
         self.interval = self.duration if spec.interval is None else spec.interval

@@ -48,7 +48,7 @@ from mitsonar.sensors.sonar import Scan, Sonar
 from mitsonar.signal.band import Recording
 from mitsonar.signal.detection import Echoes
 from mitsonar.signal.imaging import ReceiveImager
-from mitsonar.signal.imaging_settings import ImagePoints, ImagingSettings
+from mitsonar.signal.imaging_settings import ImagePoints, ImagingSettings, imaging_settings_for
 from mitsonar.trace.tracer import AcousticTracer, TraceSettings
 from mitsonar.validation import check_range
 
@@ -220,15 +220,19 @@ class ImagingSonar:
 
     Args:
         sonar: the scene and sensor configuration.
-        settings: the receive grid and detection rule.
+        settings: the receive grid and detection rule; None: the rule for the sonar's drive
+            (:func:`~mitsonar.signal.imaging_settings.imaging_settings_for`: the trust rule read
+            in sub-bands for a sweep over an octave, as 20-80 kHz; else ``ImagingSettings()``).
         transmit: the transmission and its trace.
     """
 
-    def __init__(self, sonar: Sonar, settings: ImagingSettings = ImagingSettings(),
+    def __init__(self, sonar: Sonar, settings: ImagingSettings | None = None,
                  transmit: TransmitSettings = TransmitSettings()):
         self.sonar = sonar
         self.transmit = transmit
         cfg = sonar.config
+        if settings is None:
+            settings = imaging_settings_for(cfg.pulse)
         g = cfg.geometry
         half_diagonal = g.fov_half_diagonal
         if transmit.cone_half_angle <= half_diagonal:
