@@ -58,8 +58,8 @@ def _timed(fn, repeat: int = 1):
 
 #: Stages of the profile: (name, functions whose inclusive times add up, functions subtracted),
 #: functions as (file, name). Disjoint by construction (``drive_spectra`` runs inside
-#: ``element_spectrum``), except the channel transforms ``element_spectrum`` makes with shared
-#: hits, which count in both of their stages; the rest is "other".
+#: ``driven_samples``, shared hits' synthesis; ``impulse_grid`` is not called with factored
+#: paths on these paths, so it never holds ``_pair_grids``); the rest is "other".
 STAGES = (
     ("ray casts and refinement", [("casting.py", "_cast")], []),
     ("shadow rays", [("casting.py", "_visibility")], []),
@@ -70,11 +70,11 @@ STAGES = (
       ("element_factors.py", "element_factors")]),
     ("narrow-band merge kernel", [("hitpaths.py", "merged")], []),
     ("gridding kernel",
-     [("synthesis.py", "impulse_grid"), ("synthesis.py", "impulse_grids")], []),
+     [("synthesis.py", "impulse_grid"), ("synthesis.py", "_pair_grids")], []),
     ("synthesis FFTs and filters",
      [("synthesis.py", "groups_spectrum"), ("band.py", "to_samples"),
-      ("synthesis.py", "element_spectrum")],
-     [("synthesis.py", "impulse_grid"), ("synthesis.py", "impulse_grids")]),
+      ("synthesis.py", "driven_samples")],
+     [("synthesis.py", "impulse_grid"), ("synthesis.py", "_pair_grids")]),
     ("receiver noise", [("synthesis.py", "recording"), ("synthesis.py", "band_noise")], []),
     ("channel transforms", [("band.py", "band_spectra")], []),
     ("receive chain (beamforming to depth)", [("receiver.py", "process_spectra"),
@@ -170,6 +170,9 @@ def main(argv=None) -> int:
     t_ping, _ = _timed(lambda: sonar.scan(pose, dirs))
     report("single-beam pings/s (scan)", len(dirs) / t_ping, "pings/s", 1 / REAL_PING_S,
            "real sensor", goal=PING_GOAL)
+    t_shared, _ = _timed(lambda: sonar.scan(pose, dirs, shared_hits=True))
+    report("  the same, shared hits", len(dirs) / t_shared, "pings/s", 1 / REAL_PING_S,
+           "real sensor", goal=PING_GOAL)
     t_alone, _ = _timed(lambda: [sonar.ping(pose, u) for u in dirs])
     print(f"{'  one ping() call per beam':<34s} {len(dirs) / t_alone:12.4g} pings/s")
     draft = mitsonar.Sonar(sonar.scene, fidelity("draft").apply(sonar.config))
@@ -184,6 +187,11 @@ def main(argv=None) -> int:
     fast = mitsonar.Sonar(sonar.scene, quiet)
     full = mitsonar.Sonar(sonar.scene, replace(quiet, **FULL_RATE))
     report_depths(fast.scan(pose, dirs).depth, full.scan(pose, dirs).depth)
+    print("  where the time goes with shared hits (cProfile of the scan, per beam):")
+    profiled += profile(lambda: sonar.scan(pose, dirs, shared_hits=True), len(dirs), len(dirs),
+                        "pings/s")
+    report_depths(*(one.scan(pose, dirs, shared_hits=True).depth for one in (fast, full)),
+                  "its full-rate reference (shared)")
 
     schedule = OfdmSonar(sonar).schedule(sonar.fov_grid(np.radians(10.0 if args.quick else 5.0)))
     real_frames = 1 / REAL_FRAME_S * 117 / len(schedule.directions)

@@ -40,7 +40,7 @@ import numpy as np
 
 from mitsonar.caching import kept
 from mitsonar.frames import Pose
-from mitsonar.sensors.sonar import PRE_ROLL, Sonar, beam_seed
+from mitsonar.sensors.sonar import HITS_STREAM, PRE_ROLL, Sonar, beam_seed
 from mitsonar.signal.band import Band
 from mitsonar.signal.detection import Echoes
 from mitsonar.signal.ofdm import PAPER_LISTEN, Schedule, code_set
@@ -248,7 +248,7 @@ class OfdmSonar:
             pose = poses[group[0]]
             if patches is None or not _within(patches.pose, pose, self.retrace_tolerance):
                 patches = tracer.trace_union(pose, directions,
-                                             beam_seed(seed, int(beams[0]), _HITS_STREAM))
+                                             beam_seed(seed, int(beams[0]), HITS_STREAM))
             total = total + synth.element_spectrum(tracer.patch_paths(patches, pose),
                                                    [codes[i] for i in group], delays[group])
             for i in group:
@@ -322,7 +322,6 @@ class OfdmSonar:
 
 
 _NOISE_STREAM = 1_000_003  # separates the noise seeds from the per-beam trace seeds
-_HITS_STREAM = 1_000_033  # and the shared traces' seeds
 
 
 def _tolerance(name: str, value) -> tuple[float, float]:

@@ -409,7 +409,8 @@ class Sonar:
             return (synthesizer or self.synthesizer).narrowband_groups(paths, waveform)
         return [(paths, waveform)]
 
-    def scan(self, pose: Pose, directions, seed: int = 0, progress=None) -> Scan:
+    def scan(self, pose: Pose, directions, seed: int = 0, progress=None,
+             shared_hits: bool = False) -> Scan:
         """Ping every direction (B, 3) from one pose; ``progress`` is called with each index.
 
         Beam b uses seed ``[seed, b]`` and gives the same ping as :meth:`ping` with that seed;
@@ -417,6 +418,18 @@ class Sonar:
         <mitsonar.trace.tracer.AcousticTracer.trace_many>`) and each batch's recordings decoded
         together (:meth:`EchoProcessor.process_beams
         <mitsonar.signal.receiver.EchoProcessor.process_beams>`).
+
+        With ``shared_hits`` the beam-independent work is done once for the scan: the union of
+        the beams' cones traced once (:meth:`AcousticTracer.trace_union
+        <mitsonar.trace.tracer.AcousticTracer.trace_union>`, seed ``[seed, 0, HITS_STREAM]``),
+        every element pair gridded and transformed once, each ping's recording the channels
+        driven by its steering (:meth:`EchoSynthesizer.driven_samples
+        <mitsonar.signal.synthesis.EchoSynthesizer.driven_samples>`; noise seeded as without).
+        Each beam then carries its transmit pattern over the union, side lobes beyond its own
+        20 deg cone included, as an OFDM frame's beams do (docs/performance.md); where the
+        tracer cannot share hits (:meth:`AcousticTracer.shares_hits
+        <mitsonar.trace.tracer.AcousticTracer.shares_hits>`: the paper model) every beam is
+        traced in its own cone, as without.
         """
         dirs = np.asarray(directions, dtype=float).reshape(-1, 3)
         self.config.geometry.check_in_fov(dirs)
@@ -425,14 +438,21 @@ class Sonar:
         band = self.band
         echoes = np.empty((len(dirs), n_rx, band.n_samples),
                           dtype=np.complex64 if band.baseband else np.float32)
+        shared = self._shared_samples(pose, dirs, seed) \
+            if shared_hits and self.tracer.shares_hits() else None
         found = []
         for first in range(0, len(dirs), TRACE_BATCH):
             beams = range(first, min(first + TRACE_BATCH, len(dirs)))
             seeds = [beam_seed(seed, b) for b in beams]
             batch = dirs[first:beams.stop]
-            traces = self.tracer.trace_many([pose] * len(beams), batch, seeds)
-            recordings = [self._record(u, trace, one)  # each beam's echoes, vectorised
-                          for u, trace, one in zip(batch, traces, seeds)]
+            if shared is None:
+                traces = self.tracer.trace_many([pose] * len(beams), batch, seeds)
+                recordings = [self._record(u, trace, one)  # each beam's echoes, vectorised
+                              for u, trace, one in zip(batch, traces, seeds)]
+            else:
+                recordings = [self.synthesizer.recording(samples, self.config.noise_rms,
+                                                         seed=[one, 1])
+                              for samples, one in zip(next(shared), seeds)]
             found.append(self.processor.process_beams(recordings, batch,
                                                       self._direct_envelopes_towards(batch))[1])
             for b, recording in zip(beams, recordings):  # keep the echoes, not the paths
@@ -449,6 +469,22 @@ class Sonar:
                     points_sensor=joined["point"].reshape(-1, 3), echo_table=table, echoes=echoes,
                     sample_rate=band.sample_rate, start_time=band.start_time,
                     carrier=band.carrier)
+
+    def _shared_samples(self, pose: Pose, directions: np.ndarray, seed: int):
+        """Noiseless recordings of pings towards unit ``directions`` (B, 3) from ``pose`` with
+        shared hits (:meth:`scan`), ``TRACE_BATCH`` beams at a time: an iterator of
+        (TRACE_BATCH, N_rx, n_samples) arrays, the echoes and the direct paths of each."""
+        tracer = self.tracer
+        patches = tracer.trace_union(pose, directions, beam_seed(seed, 0, HITS_STREAM))
+        delays = self.config.geometry.steering_delays(directions, tracer.c)[:, None, :]
+        return self.synthesizer.driven_samples(
+            [tracer.patch_paths(patches, pose), tracer.direct_paths()], [self.config.pulse],
+            delays, TRACE_BATCH)
+
+
+#: Seed stream of the hits that beams share (an OFDM cycle's, a scan's), apart from the per-beam
+#: trace seeds.
+HITS_STREAM = 1_000_033
 
 
 def beam_seed(seed: int, beam: int, *streams: int) -> int:

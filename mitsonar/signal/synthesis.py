@@ -124,8 +124,8 @@ class EchoSynthesizer:
         on the order the threads add them in: the same paths give bit-identical recordings. The
         grid is returned in single precision (complex64: its rounding, ~6e-8 of the largest
         sample, is far below the band floor; its FFTs take half the time). Paths whose kernel
-        lies wholly outside the recording are left out. ``per_pair`` and ``period``: factored
-        paths on a row per element pair, on a longer period (:meth:`_pair_grids`).
+        lies wholly outside the recording are left out. ``per_pair``: factored paths on a row
+        per element pair (:meth:`_pair_grids`); ``period``: a period longer than n_grid.
         """
         if isinstance(paths, HitPaths):
             return self._pair_grids([paths], n_channels, per_pair, period)[0]
@@ -136,6 +136,7 @@ class EchoSynthesizer:
 
         band = self.band
         fs, hw = band.sample_rate, self.half_width
+        period = band.n_grid if period is None else period
         u = (np.asarray(paths.delay) - band.start_time) * fs
         keep = (u > -hw) & (u < band.n_samples + hw)
         channel = np.asarray(paths.channel)[keep]
@@ -150,7 +151,7 @@ class EchoSynthesizer:
             np.abs(gain) + np.abs(slope) * (abs(omega) + fs * (hw + 1) * inv_var)
         scale = float(fixed_point_scale(np.max(bound, initial=0.0)))
         if len(channel) == 0 or scale == 0.0:
-            return np.zeros((n_channels, band.n_grid), dtype=np.complex64)
+            return np.zeros((n_channels, period), dtype=np.complex64)
         first_order = None if slope is None else (
             to_jit(Float64, slope.real * scale), to_jit(Float64, slope.imag * scale),
             dr.opaque(Float64, omega))  # a variable, not a literal: one kernel for all carriers
@@ -161,7 +162,7 @@ class EchoSynthesizer:
                                to_jit(Int64, channel * width - origin), gains, first_order,
                                dr.opaque(Float64, band.shift_bin / band.n_grid), hw, inv_var,
                                fs * inv_var, True)
-        return folded(acc.numpy().reshape(n_channels, -1, 2), scale, band.n_grid, origin)
+        return folded(acc.numpy().reshape(n_channels, -1, 2), scale, period, origin)
 
     def _merged_grid(self, paths: MergedHits, n_channels: int) -> np.ndarray:
         """:meth:`impulse_grid` of narrow-band merged paths held as Dr.Jit arrays."""
@@ -338,26 +339,30 @@ class EchoSynthesizer:
         return np.sum(spectra, axis=0)  # waveform after waveform
 
     def drive_spectra(self, waveforms, delays, frequencies) -> np.ndarray:
-        """System spectra (N_tx, F) at ``frequencies`` (F,) [Hz] of transmit elements that each
-        fire every waveform b of ``waveforms`` (B) with its own delay ``delays[b, e]`` (B, N_tx)
-        [s] (a beam's steering and firing time): sum_b W_b(f) exp(-j 2 pi f delays[b, e]), W_b
-        the system response (:meth:`Band.system_response`) left out below the band's floor, as
-        :meth:`Band.system_spectrum` leaves it. Kept per (waveforms, delays, frequencies): frames
-        repeat their schedule."""
-        key = (tuple(waveforms), np.asarray(delays).tobytes(),
-               np.asarray(frequencies, dtype=float).tobytes())
-        if key not in self._drives:
-            band = self.band
-            spectra = []
-            for w in waveforms:  # the cycle's codes
-                response = code_response(band, w, frequencies)
-                floor = band.floor * np.abs(band.system_spectrum(w)).max()
-                spectra.append(np.where(np.abs(response) > floor, response, 0.0))
-            phases = np.exp(-2j * np.pi * np.asarray(delays)[:, :, None] * frequencies)
+        """System spectra (..., N_tx, F) at ``frequencies`` (F,) [Hz] of transmit elements that
+        each fire every waveform b of ``waveforms`` (B) with its own delay ``delays[..., b, e]``
+        (..., B, N_tx) [s] (a beam's steering and firing time; leading axes: recordings apart):
+        sum_b W_b(f) exp(-j 2 pi f delays[..., b, e]), W_b the system response
+        (:meth:`Band.system_response`) left out below the band's floor, as
+        :meth:`Band.system_spectrum` leaves it. Kept for one recording's delays (B, N_tx) per
+        (waveforms, delays, frequencies): frames repeat their schedule."""
+        delays = np.asarray(delays, dtype=float)
+        key = (tuple(waveforms), delays.tobytes(), np.asarray(frequencies, dtype=float).tobytes())
+        if delays.ndim == 2 and key in self._drives:
+            return self._drives[key]
+        band = self.band
+        spectra = []
+        for w in waveforms:  # the cycle's codes
+            response = code_response(band, w, frequencies)
+            floor = band.floor * np.abs(band.system_spectrum(w)).max()
+            spectra.append(np.where(np.abs(response) > floor, response, 0.0))
+        phases = np.exp(-2j * np.pi * delays[..., None] * frequencies)
+        drives = np.einsum("bf,...bef->...ef", np.array(spectra), phases)
+        if delays.ndim == 2:
             if len(self._drives) >= DRIVES_KEPT:
                 self._drives.clear()
-            self._drives[key] = np.einsum("bf,bef->ef", np.array(spectra), phases)
-        return self._drives[key]
+            self._drives[key] = drives
+        return drives
 
     def element_spectrum(self, paths: HitPaths, waveforms, delays) -> np.ndarray:
         """Analytic spectrum on the band (N_rx, nb) of the recording of unsteered factored
@@ -365,19 +370,38 @@ class EchoSynthesizer:
         waveform b of ``waveforms`` with delay ``delays[b, e]`` (B, N_tx) [s]: sum_e G_em(f)
         D_e(f) (:meth:`drive_spectra`), with G_em the channel from element e to receive element
         m through the patches, gridded once on a row per element pair (:func:`pair_kernel`)
-        whatever the number of waveforms.
+        whatever the number of waveforms (:meth:`driven_samples`), the recording's samples put
+        onto the band (:meth:`Band.band_spectra`)."""
+        samples = next(self.driven_samples([paths], waveforms, np.asarray(delays)[None]))
+        return self.band.band_spectra(samples[0])
+
+    def driven_samples(self, sets, waveforms, delays, batch: int = 1):
+        """Noiseless recorded samples of P recordings through unsteered path ``sets``
+        (factored :class:`HitPaths`, whose elements give N_tx x N_rx, and :class:`Paths` on a
+        channel per element pair, transmit element major, e.g. the unsteered direct paths; or
+        :class:`Subbands` of them, part by part) when in recording p every transmit element e
+        fires each waveform b of ``waveforms`` (B) with delay ``delays[p, b, e]`` (P, B, N_tx)
+        [s] (a ping's steering; a cycle's codes' steering and firing times): sum_e G_em(f)
+        D_pe(f) (:meth:`drive_spectra`), the channels G_em from element e to receive element m
+        gridded once on a row per element pair (:func:`pair_kernel`) whatever the number of
+        waveforms and recordings. Yields them ``batch`` recordings at a time, (batch, N_rx,
+        n_samples) arrays in order: the memory a batch needs.
 
         The drives' delays carry echoes later; on the band's period they would wrap onto the
         recording's start. So the rows are gridded on a period longer by the largest delay, the
         channels driven and summed on its bins within the band, and the recording's samples
         taken from them (an inverse transform, the echoes cut at the recording's end as a
-        recording cuts them) and put onto the band (:meth:`Band.band_spectra`)."""
-        if isinstance(paths, Subbands):
-            return sum(self.element_spectrum(part, [SubBand(w, paths.nodes, k) for w in waveforms],
-                                             delays) for k, part in enumerate(paths.parts))
+        recording cuts them)."""
+        if isinstance(sets[0], Subbands):
+            parts = [self.driven_samples([s.parts[k] for s in sets],
+                                         [SubBand(w, sets[0].nodes, k) for w in waveforms],
+                                         delays, batch) for k in range(len(sets[0].parts))]
+            yield from (sum(pieces) for pieces in zip(*parts))
+            return
         band = self.band
         fs = band.sample_rate
-        n_tx, n_rx = paths.elements
+        n_tx, n_rx = next(p.elements for p in sets if isinstance(p, HitPaths))
+        delays = np.asarray(delays, dtype=float)
         period = sfft.next_fast_len(
             band.n_grid + int(np.ceil(max(float(np.max(delays)), 0.0) * fs)))
         nu = np.fft.fftfreq(period)  # [cycles per sample] from the band's centre f_d
@@ -389,18 +413,24 @@ class EchoSynthesizer:
         # Patches in order of arrival: the kernel's threads (a block of consecutive patches per
         # core) then add into a narrow band of columns of the N_tx x N_rx rows, which stays in
         # cache (in the trace's order they span the whole recording: measured 5x slower).
-        grid = self._pair_grids([paths], n_rx, per_pair=True, period=period, by_arrival=True)[0]
-        channels = sfft.fft(grid, axis=-1, workers=-1)[:, inside].reshape(n_tx, n_rx, -1)
-        drives = self.drive_spectra(waveforms, delays, frequencies[inside]) \
-            * (band.n_grid / band.n_fft / self._kernel_transform(nu[inside]))
-        full = np.zeros((n_rx, period), complex)
-        full[:, inside] = np.einsum("emf,ef->mf", channels, drives)
+        grid = sum(self._pair_grids([p], n_rx, per_pair=True, period=period, by_arrival=True)[0]
+                   if isinstance(p, HitPaths) else
+                   self.impulse_grid(p, n_tx * n_rx, period=period) for p in sets)
+        # (F, N_tx, N_rx): a matrix per bin, for the drives' products
+        channels = np.moveaxis(sfft.fft(grid, axis=-1, workers=-1)[:, inside], -1, 0).reshape(
+            -1, n_tx, n_rx)
+        scale = band.n_grid / band.n_fft / self._kernel_transform(nu[inside])
         # a(t) exp(-j 2 pi f_d (t - t0)) at the recording's samples (t0 its start)
-        shifted = sfft.ifft(full, axis=-1, workers=-1)[:, : band.n_samples]
-        turn = np.exp(2j * np.pi * centre * np.arange(band.n_samples) / fs)
-        samples = shifted * np.exp(-2j * np.pi * centre * band.start_time) if band.baseband \
-            else (shifted * turn).real
-        return band.band_spectra(samples)
+        turn = np.exp(-2j * np.pi * centre * band.start_time) if band.baseband else \
+            np.exp(2j * np.pi * centre * np.arange(band.n_samples) / fs)
+        for first in range(0, len(delays), batch):
+            drives = self.drive_spectra(waveforms, delays[first] if len(delays) == 1 else
+                                        delays[first:first + batch], frequencies[inside]) * scale
+            drives = drives.reshape(-1, n_tx, len(inside))  # (P, N_tx, F)
+            full = np.zeros((len(drives), n_rx, period), complex)
+            full[..., inside] = np.moveaxis(np.moveaxis(drives, -1, 0) @ channels, 0, -1)
+            shifted = sfft.ifft(full, axis=-1, workers=-1)[..., : band.n_samples]
+            yield shifted * turn if band.baseband else (shifted * turn).real
 
     def group_spectrum(self, paths: Paths, waveform, n_channels: int) -> np.ndarray:
         """Analytic spectrum on the band (n_channels, nb) of ``paths`` driven by ``waveform``."""

@@ -577,17 +577,23 @@ class AcousticTracer(RayCaster):
             x2, n2, mats2, edges, (x1[hit], n1h), steering[hit],
             (taper[hit] * r1).astype(complex), visible, self._roughness(mats2, beam[hit], rngs)))]
 
-    def direct_paths(self, direction) -> Paths | Subbands:
+    def direct_paths(self, direction=None) -> Paths | Subbands:
         """Direct transmitter -> receiver paths (cross-talk) for a beam steered to
-        ``direction``, at every frequency node (:class:`Subbands` of them for more than one)."""
+        ``direction``, at every frequency node (:class:`Subbands` of them for more than one).
+        Without a direction: unsteered (delays: travel times), on a channel per element pair
+        (transmit element major, as :meth:`EchoSynthesizer.ping_samples
+        <mitsonar.signal.synthesis.EchoSynthesizer.ping_samples>` grids them)."""
         g = self.geometry
-        u = _unit(np.asarray(direction, dtype=float))
-        steering = g.steering_delays(u, self.c)
         v = g.rx_positions[None, :, :] - g.tx_positions[:, None, :]  # (N_tx, N_rx, 3)
         r = np.linalg.norm(v, axis=-1)
         cos = np.clip(v[..., 2] / r, 0.0, 1.0)  # grazing along the baffle
-        delay = steering[:, None] + r / self.c
-        channel = np.broadcast_to(np.arange(g.rx.count), r.shape)
+        if direction is None:
+            delay = r / self.c
+            channel = np.arange(r.size).reshape(r.shape)
+        else:
+            delay = g.steering_delays(_unit(np.asarray(direction, dtype=float)), self.c)[:, None] \
+                + r / self.c
+            channel = np.broadcast_to(np.arange(g.rx.count), r.shape)
         on = np.ones(g.tx.count, bool) if self._weights is None else self._weights != 0
         weight = np.ones(g.tx.count) if self._weights is None else self._weights
         parts = []
