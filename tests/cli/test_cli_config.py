@@ -43,6 +43,21 @@ def test_scan_command_writes_outputs(small_scene, tmp_path, capsys):
     assert f"{summary['detected']}/3 beams" in capsys.readouterr().out
 
 
+def test_scan_command_with_shared_hits(small_scene, tmp_path):
+    """``--shared-hits``: one trace of the field of view for every ping; the wall answers at
+    normal incidence, within 1 cm of its plane, and the summary says the hits were shared."""
+    out = tmp_path / "shared"
+    assert main(["scan", small_scene, "--fov", "20x10", "--step", "10", "--shared-hits",
+                 "--out", str(out)]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["shared_hits"] and summary["beams"] == 3
+    data = np.load(out / "echoes.npz")
+    assert data["detected"][1]
+    ply = (out / "points.ply").read_text().splitlines()
+    points = np.loadtxt(ply[ply.index("end_header") + 1:], ndmin=2)
+    np.testing.assert_allclose(points[:, 0], 2.1, atol=0.01)
+
+
 @pytest.mark.parametrize("args,message", [
     (["--pose", "0,nan,0"], "pose"), (["--fov", "80x10"], "field of view"),
     (["--step", "-5"], "step")])
