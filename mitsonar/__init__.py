@@ -22,7 +22,7 @@ from mitsonar.signal.detection import Detection, DetectionSettings  # noqa: E402
 from mitsonar.scene.loading import AcousticScene, SceneError, load_scene  # noqa: E402
 from mitsonar.physics.waveforms import Chirp, Pulse  # noqa: E402
 from mitsonar.sensors.sonar import Ping, Scan, Sonar, SonarConfig  # noqa: E402
-from mitsonar.trace.tracer import TraceSettings  # noqa: E402
+from mitsonar.trace.settings import TraceSettings  # noqa: E402
 from mitsonar.sensors.trajectory import OdometryDrift, Trajectory  # noqa: E402
 from mitsonar.physics.transducer import Transducer  # noqa: E402
 from mitsonar.recon.voxelmap import VoxelMap, VoxelMapSettings, colourise  # noqa: E402

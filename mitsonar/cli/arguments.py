@@ -157,6 +157,16 @@ def drive_config(args):
         raise ValueError(f"--chirp {args.chirp} needs {needs}: {error}") from None
 
 
+def add_shared_hits_argument(parser) -> None:
+    """``--shared-hits``: a scan's beams share one trace and one gridding of the element pairs
+    (:meth:`Sonar.scan <mitsonar.sensors.sonar.Sonar.scan>`)."""
+    parser.add_argument("--shared-hits", action="store_true",
+                        help="trace the field of view once and synthesise every ping of a scan "
+                             "from one gridding of the element pairs: each beam carries its "
+                             "transmit side lobes, 2-3x faster on a full grid (default: each "
+                             "beam in its own 20 deg cone; the paper preset always)")
+
+
 def add_echoes_argument(parser, default: str, what: str) -> None:
     """The ``--echoes`` option: which echoes of each beam ``what`` takes
     (``DetectionSettings.echoes``)."""

@@ -8,8 +8,8 @@ import numpy as np
 
 from mitsonar.cli.arguments import (add_drive_arguments, add_echoes_argument,
                                     add_preset_argument, add_scene_argument,
-                                    add_workers_argument, command_group, drive_config,
-                                    output_directory, output_file)
+                                    add_shared_hits_argument, add_workers_argument, command_group,
+                                    drive_config, output_directory, output_file)
 from mitsonar.data.dataset import SCANS, DatasetSpec, open_dataset, render_dataset
 
 
@@ -41,6 +41,7 @@ def add_cli(subparsers) -> None:
                         "('beams', --step, --echoes) or one single-ping receive image ('image', "
                         "every point of it with its attributes) (default: beams)")
     add_drive_arguments(r, "with --scan image, the most points per image: docs/imaging.md")
+    add_shared_hits_argument(r)
     add_workers_argument(r, "the samples")
     r.add_argument("--scheduler", default=None,
                    help="Dask scheduler address, or 'local' for a Dask LocalCluster of --workers "
@@ -71,7 +72,8 @@ def _run_render(args) -> int:
     spec = DatasetSpec(str(args.scene), period=args.period, scan_step=np.radians(args.step),
                        image_width=args.width, spp=args.spp, seed=args.seed,
                        max_samples=args.samples, sonar_preset=args.preset, echoes=args.echoes,
-                       scan=args.scan, broadband=args.broadband, chirp=args.chirp)
+                       scan=args.scan, broadband=args.broadband, chirp=args.chirp,
+                       shared_hits=args.shared_hits)
     total = len(spec.timeline()[0])
     with tqdm(total=total, desc="samples", unit="sample", file=sys.stderr) as bar:
         done = sum((args.out / "samples" / f"{k:06d}" / "manifest.json").exists() for k in range(total))

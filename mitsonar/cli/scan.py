@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from mitsonar.cli.arguments import (add_output_argument, add_preset_argument, add_scene_argument,
-                                    parse_fov, parse_pose)
+                                    add_shared_hits_argument, parse_fov, parse_pose)
 
 
 def add_cli(subparsers) -> None:
@@ -30,11 +30,7 @@ def add_cli(subparsers) -> None:
                    help="TOML sonar configuration file, overriding --preset (default: none)")
     p.add_argument("--seed", type=int, default=0,
                    help="seed of the noise and the diffuse phases (default 0)")
-    p.add_argument("--shared-hits", action="store_true",
-                   help="trace the field of view once and synthesise every ping from one "
-                        "gridding of the element pairs: each beam carries its transmit side "
-                        "lobes, 2-3x faster on a full grid (default: each beam in its own "
-                        "20 deg cone; the paper preset always)")
+    add_shared_hits_argument(p)
     add_output_argument(p)
     p.set_defaults(func=_run_scan)
 

@@ -88,6 +88,10 @@ class DatasetSpec:
             :func:`~mitsonar.signal.imaging_settings.imaging_settings_for`); None: the burst.
             (True and False, as specs written before the 20-80 kHz sweep hold, read as '30-50'
             and None.)
+        shared_hits: the beam scan's beams share one trace and one gridding of the element
+            pairs (:meth:`Sonar.scan <mitsonar.sensors.sonar.Sonar.scan>`: each beam carries its
+            transmit side lobes); False: each beam in its own cone. (Specs written before it
+            read as False.)
     """
 
     scene: str
@@ -106,6 +110,7 @@ class DatasetSpec:
     scan: str = "beams"
     broadband: bool = False
     chirp: str | None = None
+    shared_hits: bool = False
 
     def __post_init__(self):
         check_positive("DatasetSpec.period [s]", self.period)
@@ -194,7 +199,8 @@ class _Renderer:
         pose = sensor_poses(self.truth[index: index + 1])[0]
         seed = _derive_seed(self.spec.seed, "sample", index)
         images = self.camera.render(pose, seed=seed)
-        scan = self.sonar.scan(pose, self.directions, seed=seed) if self.imaging is None \
+        scan = self.sonar.scan(pose, self.directions, seed=seed,
+                               shared_hits=self.spec.shared_hits) if self.imaging is None \
             else self.imaging.scan(pose, seed=seed)
         tmp = Path(tempfile.mkdtemp(dir=out / "samples", prefix=f".{index:06d}."))
         try:

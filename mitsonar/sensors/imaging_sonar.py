@@ -49,7 +49,8 @@ from mitsonar.signal.band import Recording
 from mitsonar.signal.detection import Echoes
 from mitsonar.signal.imaging import ReceiveImager
 from mitsonar.signal.imaging_settings import ImagePoints, ImagingSettings, imaging_settings_for
-from mitsonar.trace.tracer import AcousticTracer, TraceSettings
+from mitsonar.trace.settings import TraceSettings
+from mitsonar.trace.tracer import AcousticTracer
 from mitsonar.validation import check_range
 
 #: The axis of the traced cone: the array's normal, towards which no element has a firing delay.

@@ -30,8 +30,8 @@ from mitsonar.signal.band import BAND_TOP, Band, Recording
 from mitsonar.signal.synthesis import EchoSynthesizer
 from mitsonar.trace.paths import Paths
 from mitsonar.trace.subbands import nodes_needed
-from mitsonar.trace.tracer import (AcousticTracer, TraceResult, TraceSettings,
-                                   band_half_width, frequency_gains)
+from mitsonar.trace.settings import TraceSettings
+from mitsonar.trace.tracer import AcousticTracer, TraceResult, band_half_width, frequency_gains
 from mitsonar.physics.transducer import Transducer
 from mitsonar.validation import check_positive
 

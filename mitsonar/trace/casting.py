@@ -2,7 +2,7 @@
 
 A beam's rays leave the transmit origin on a grid over a cone around the beam axis, regular in a
 warped tangent-plane coordinate (deterministic importance sampling: each ray owns an exactly
-known cell of solid angle; :class:`~mitsonar.trace.tracer.TraceSettings` ``ray_density``).
+known cell of solid angle; :class:`~mitsonar.trace.settings.TraceSettings` ``ray_density``).
 :class:`RayCaster` holds that grid, casts rays through the scene (stepping through acoustically
 transparent surfaces), refines cells at silhouettes, material changes, depth jumps and curved
 surfaces into sub-rays, and tests the visibility of receive elements from hits (shadow rays).
@@ -81,7 +81,7 @@ class RayCaster:
     Args:
         scene: the loaded acoustic scene.
         geometry: arrays of the sensor head.
-        settings: the trace's :class:`~mitsonar.trace.tracer.TraceSettings` (grid, refinement,
+        settings: the trace's :class:`~mitsonar.trace.settings.TraceSettings` (grid, refinement,
             merging, shadow rays).
         wavenumbers: (carrier, top of the band) [rad/m] of the patch criterion
             (:mod:`mitsonar.trace.density`); None: cells are never merged.

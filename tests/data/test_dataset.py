@@ -177,3 +177,24 @@ def test_sweeps_by_name_and_specs_written_with_a_boolean_chirp(tmp_path):
     assert _Renderer(DatasetSpec(ROOM, scan="image", chirp="30-50", sonar_preset="paper",
                                  max_samples=1, image_width=16,
                                  spp=1)).imaging.imager.settings == ImagingSettings()
+
+
+def test_shared_hits_samples_hold_the_shared_scan_and_old_specs_read_as_per_beam(tmp_path):
+    """``shared_hits``: a sample's echoes are the scan with shared hits from its pose and seed,
+    bit for bit (not the per-beam scan's); a spec written before the field reads as False, so
+    its folder still resumes."""
+    from mitsonar.data.dataset import _derive_seed, _normalised
+    from mitsonar.sensors.trajectory import sensor_poses
+
+    spec = DatasetSpec(ROOM, period=2.0, scan_step=np.radians(30), image_width=16, spp=1,
+                       max_samples=1, shared_hits=True)
+    sample = open_dataset(render_dataset(spec, tmp_path / "shared"))[0]
+    renderer = _Renderer(spec)
+    sensor = sensor_poses(np.array([sample.pose["robot_pose_truth"]]))[0]
+    seed = _derive_seed(spec.seed, "sample", 0)
+    shared, per_beam = (renderer.sonar.scan(sensor, renderer.directions, seed=seed,
+                                            shared_hits=s).echoes for s in (True, False))
+    assert np.array_equal(sample.echoes["echoes"], shared)
+    assert not np.array_equal(shared, per_beam)
+    old = {key: value for key, value in SPEC.to_json().items() if key != "shared_hits"}
+    assert DatasetSpec.from_json(old) == SPEC and _normalised(old) == SPEC.to_json()
