@@ -7,7 +7,7 @@ every ``--period`` seconds of driving (the sensor head on the robot,
 physical default ``SonarConfig()``, TCT40-class narrow-band transducers and physical-optics
 plus Lambert scattering, and ``SonarConfig.preset('paper')``) fire single-beam pings over the
 beam grid (:meth:`Sonar.scan <mitsonar.sensors.sonar.Sonar.scan>`, ``--step`` apart, every beam
-from that pose). ``--presets`` also takes two variants of the default that test why it loses
+from that pose). ``--presets`` also takes variants of the default that test why it loses
 walls (:data:`VARIANTS`).
 
 Ground truth of every beam, cast with the sonar's own acoustic ray caster (the first surface
@@ -69,11 +69,13 @@ SCENES = Path(__file__).resolve().parents[1] / "scenes"
 SCENE_NAMES = ("room_glass", "structure", "office", "workshop")
 #: The presets compared, then two variants of the default that test why it loses walls (run
 #: when named in --presets): broadband (20 kHz) transducers instead of the TCT40's 2 kHz, and
-#: the receiver's side-lobe check off (``DetectionSettings.ghost_margin = 0``); and one that
+#: the receiver's side-lobe check off (``DetectionSettings.ghost_margin = 0``); one that
 #: recovers what that check rejects: off-beam echoes re-placed where they arrive from
-#: (``DetectionSettings.off_beam``).
+#: (``DetectionSettings.off_beam``); and the default's scans with shared hits, every beam with
+#: its transmit side lobes over the field of view (``Sonar.scan(..., shared_hits=True)``).
 PRESETS = ("default", "paper")
-VARIANTS = ("default_broadband", "default_no_sidelobe_check", "default_off_beam")
+VARIANTS = ("default_broadband", "default_no_sidelobe_check", "default_off_beam",
+            "default_shared_hits")
 #: Grid step [rad] and half span [rad] (in field-of-view angles around each beam) on which the
 #: beams' -3 dB cones are sampled; the span is checked to hold the whole cone.
 CONE_STEP = np.radians(0.25)
@@ -192,7 +194,7 @@ def sonar_config(name: str) -> mitsonar.SonarConfig:
         change = dict(ghost_margin=0.0) if name == "default_no_sidelobe_check" \
             else dict(off_beam=True)
         return mitsonar.SonarConfig().with_detection(**change)
-    return mitsonar.SonarConfig.preset(name)
+    return mitsonar.SonarConfig.preset("default" if name == "default_shared_hits" else name)
 
 
 def sonar_for(scene, preset: str, settings: RunSettings) -> mitsonar.Sonar:
@@ -220,7 +222,8 @@ def scene_beams(index: int, name: str, scene, presets, settings: RunSettings,
         cone = beam_cones(sonar.config, grid)
         for k, (t, pose) in enumerate(zip(times, poses)):
             truth = beam_truth(sonar.tracer, pose, grid, cone)
-            scan = sonar.scan(pose, grid, seed=beam_seed(settings.seed, index, k))
+            scan = sonar.scan(pose, grid, seed=beam_seed(settings.seed, index, k),
+                              shared_hits=preset == "default_shared_hits")
             distance = np.full(len(grid), np.nan)
             distance[scan.detected] = point_to_mesh(scan.points_world, mesh)[0]
             beam = dict(preset=np.full(len(grid), preset), scene=np.full(len(grid), name),

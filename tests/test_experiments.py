@@ -508,3 +508,16 @@ def test_surfel_coverage_quick(tmp_path):
     for r in kinds.values():
         assert float(r["reachable_pct"]) >= float(r["proposed_pct"]) >= \
             float(r["registered_pct"]) >= 0
+
+
+def test_incidence_variant_with_shared_hits(tmp_path):
+    """The default's scans with shared hits (every beam with its transmit side lobes) run as a
+    variant of their own: every beam of the quick poses, the default's configuration."""
+    import mitsonar
+
+    incidence = load_experiment("incidence")
+    assert incidence.main(["--quick", "--presets", "default_shared_hits",
+                           "--out", str(tmp_path)]) == 0
+    beams = list(csv.DictReader((tmp_path / "incidence_beams.csv").open()))
+    assert {r["preset"] for r in beams} == {"default_shared_hits"} and len(beams) == 3 * 35
+    assert repr(incidence.sonar_config("default_shared_hits")) == repr(mitsonar.SonarConfig())
