@@ -432,6 +432,8 @@ class Sonar:
         traced in its own cone, as without.
         """
         dirs = np.asarray(directions, dtype=float).reshape(-1, 3)
+        if not len(dirs):
+            raise ValueError("Sonar.scan needs at least one beam direction, got none")
         self.config.geometry.check_in_fov(dirs)
         dirs = dirs / np.linalg.norm(dirs, axis=1, keepdims=True)
         n_rx = self.config.geometry.rx.count

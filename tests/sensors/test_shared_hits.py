@@ -163,3 +163,11 @@ def test_shared_scan_of_point_reflectors_traces_each_beam(scene_file):
     assert not sonar.tracer.shares_hits()
     shared = sonar.scan(IDENTITY, directions, seed=2, shared_hits=True)
     np.testing.assert_array_equal(shared.echoes, sonar.scan(IDENTITY, directions, seed=2).echoes)
+
+
+@pytest.mark.parametrize("shared_hits", [False, True], ids=["per beam", "shared hits"])
+def test_a_scan_of_no_beam_is_refused(scene_file, shared_hits):
+    """No direction: one error saying so, on either path."""
+    path, config, _ = two_targets(scene_file, TRANSDUCERS["narrow-band"])
+    with pytest.raises(ValueError, match="at least one beam direction"):
+        mitsonar.Sonar(path, config).scan(IDENTITY, np.zeros((0, 3)), shared_hits=shared_hits)
