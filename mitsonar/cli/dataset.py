@@ -69,6 +69,8 @@ def _run_render(args) -> int:
     if not args.scene.is_file():
         raise ValueError(f"{args.scene}: scene file not found")
     drive_config(args)  # a sweep the transducers cannot pass, named by its options
+    if args.shared_hits and args.scan != "beams":
+        raise ValueError(f"--shared-hits applies to --scan beams, not --scan {args.scan}")
     spec = DatasetSpec(str(args.scene), period=args.period, scan_step=np.radians(args.step),
                        image_width=args.width, spp=args.spp, seed=args.seed,
                        max_samples=args.samples, sonar_preset=args.preset, echoes=args.echoes,

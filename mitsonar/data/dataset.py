@@ -124,6 +124,9 @@ class DatasetSpec:
         if self.scan not in SCANS:
             raise ValueError(f"DatasetSpec.scan must be one of {', '.join(SCANS)}, "
                              f"got {self.scan!r}")
+        if self.shared_hits and self.scan != "beams":
+            raise ValueError(f"DatasetSpec.shared_hits applies to the beam scan (scan='beams'), "
+                             f"not to scan={self.scan!r}")
         if isinstance(self.chirp, bool):
             object.__setattr__(self, "chirp", "30-50" if self.chirp else None)
         if self.chirp is not None and self.chirp not in SWEEPS:

@@ -190,3 +190,13 @@ def test_a_camera_image_too_narrow_is_refused(tmp_path, capsys, command):
     assert code == 2
     assert_one_line_error(err, "image_width", ">= 8", "3")
     assert not (tmp_path / "o").exists()
+
+
+def test_shared_hits_with_single_ping_images_is_refused(tmp_path, capsys):
+    """``dataset render --scan image --shared-hits``: the images have no beam scan to share
+    hits in; one line naming both options, exit 2, nothing written."""
+    code, err = run(["dataset", "render", "room_glass", "--scan", "image", "--shared-hits",
+                     "--out", tmp_path / "o"], capsys)
+    assert code == 2
+    assert_one_line_error(err, "--shared-hits", "--scan image")
+    assert not (tmp_path / "o").exists()

@@ -182,7 +182,7 @@ def test_sweeps_by_name_and_specs_written_with_a_boolean_chirp(tmp_path):
 def test_shared_hits_samples_hold_the_shared_scan_and_old_specs_read_as_per_beam(tmp_path):
     """``shared_hits``: a sample's echoes are the scan with shared hits from its pose and seed,
     bit for bit (not the per-beam scan's); a spec written before the field reads as False, so
-    its folder still resumes."""
+    its folder still resumes; with single-ping images it is refused."""
     from mitsonar.data.dataset import _derive_seed, _normalised
     from mitsonar.sensors.trajectory import sensor_poses
 
@@ -198,3 +198,5 @@ def test_shared_hits_samples_hold_the_shared_scan_and_old_specs_read_as_per_beam
     assert not np.array_equal(shared, per_beam)
     old = {key: value for key, value in SPEC.to_json().items() if key != "shared_hits"}
     assert DatasetSpec.from_json(old) == SPEC and _normalised(old) == SPEC.to_json()
+    with pytest.raises(ValueError, match="shared_hits applies to the beam scan"):
+        DatasetSpec(ROOM, scan="image", shared_hits=True)
