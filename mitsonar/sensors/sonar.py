@@ -359,6 +359,10 @@ class Sonar:
     def ping(self, pose: Pose, direction, seed: int = 0) -> Ping:
         """Transmit one beam towards ``direction`` (3,) (sensor frame) from ``pose`` and detect.
 
+        The beam is traced in its own cone (``TraceSettings.cone_half_angle``), without its
+        transmit side lobes beyond it (a scan with ``shared_hits`` carries them over the field of
+        view).
+
         Args:
             pose: world-from-sensor pose.
             direction: beam direction, inside the field of view.
