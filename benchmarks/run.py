@@ -186,15 +186,15 @@ def main(argv=None) -> int:
     quiet = replace(sonar.config, noise_rms=0.0)
     fast = mitsonar.Sonar(sonar.scene, quiet)
     full = mitsonar.Sonar(sonar.scene, replace(quiet, **FULL_RATE))
-    per_beam = fast.scan(pose, dirs).depth
-    report_depths(per_beam, full.scan(pose, dirs).depth)
+    per_beam_scan = fast.scan(pose, dirs).depth
+    report_depths(per_beam_scan, full.scan(pose, dirs).depth)
     print("  where the time goes with shared hits (cProfile of the scan, per beam):")
     profiled += profile(lambda: sonar.scan(pose, dirs, shared_hits=True), len(dirs), len(dirs),
                         "pings/s")
-    shared = fast.scan(pose, dirs, shared_hits=True).depth
-    report_depths(shared, full.scan(pose, dirs, shared_hits=True).depth,
+    shared_scan = fast.scan(pose, dirs, shared_hits=True).depth
+    report_depths(shared_scan, full.scan(pose, dirs, shared_hits=True).depth,
                   "its full-rate reference (shared)")
-    report_depths(shared, per_beam, "per-beam trace (shared hits; side lobes)")
+    report_depths(shared_scan, per_beam_scan, "per-beam trace (shared hits; side lobes)")
 
     schedule = OfdmSonar(sonar).schedule(sonar.fov_grid(np.radians(10.0 if args.quick else 5.0)))
     real_frames = 1 / REAL_FRAME_S * 117 / len(schedule.directions)

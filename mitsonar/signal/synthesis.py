@@ -347,8 +347,10 @@ class EchoSynthesizer:
         :meth:`Band.system_spectrum` leaves it. Kept for one recording's delays (B, N_tx) per
         (waveforms, delays, frequencies): frames repeat their schedule."""
         delays = np.asarray(delays, dtype=float)
-        key = (tuple(waveforms), delays.tobytes(), np.asarray(frequencies, dtype=float).tobytes())
-        if delays.ndim == 2 and key in self._drives:
+        cached = delays.ndim == 2  # one recording's (a frame's cycle); a scan's pings are not kept
+        key = (tuple(waveforms), delays.tobytes(),
+               np.asarray(frequencies, dtype=float).tobytes()) if cached else None
+        if cached and key in self._drives:
             return self._drives[key]
         band = self.band
         spectra = []
@@ -358,7 +360,7 @@ class EchoSynthesizer:
             spectra.append(np.where(np.abs(response) > floor, response, 0.0))
         phases = np.exp(-2j * np.pi * delays[..., None] * frequencies)
         drives = np.einsum("bf,...bef->...ef", np.array(spectra), phases)
-        if delays.ndim == 2:
+        if cached:
             if len(self._drives) >= DRIVES_KEPT:
                 self._drives.clear()
             self._drives[key] = drives
@@ -424,6 +426,7 @@ class EchoSynthesizer:
         turn = np.exp(-2j * np.pi * centre * band.start_time) if band.baseband else \
             np.exp(2j * np.pi * centre * np.arange(band.n_samples) / fs)
         for first in range(0, len(delays), batch):
+            # one recording's delays as (B, N_tx), which drive_spectra keeps for the next frame
             drives = self.drive_spectra(waveforms, delays[first] if len(delays) == 1 else
                                         delays[first:first + batch], frequencies[inside]) * scale
             drives = drives.reshape(-1, n_tx, len(inside))  # (P, N_tx, F)
